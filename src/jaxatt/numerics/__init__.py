@@ -1,0 +1,15 @@
+"""Numerical primitives with stated derivatives at their singular points.
+
+Every power, norm, sign and inverse cosine used by jaxatt goes through these helpers, so that
+gradients through a closed loop are finite wherever the mathematics allows (STYLE rule 7).
+"""
+
+from ._norm import safe_norm as safe_norm, safe_normalize as safe_normalize
+from ._power import abs_pow as abs_pow, sig_pow as sig_pow
+from ._switching import (
+    rational_sign as rational_sign,
+    sat as sat,
+    sign as sign,
+    smooth_sign as smooth_sign,
+)
+from ._trig import safe_arccos as safe_arccos

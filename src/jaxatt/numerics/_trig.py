@@ -1,0 +1,25 @@
+"""Inverse trigonometric functions with finite derivatives at the ends of their domain."""
+
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike, Float
+
+
+@jax.custom_jvp
+def safe_arccos(x: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
+    r"""$\arccos(\mathrm{clip}(x, -1, 1))$.
+
+    **Gradient:** $-1/\sqrt{\max(1 - x^2, \varepsilon)}$ (`eps` the dtype's machine epsilon),
+    finite at $x = \pm 1$ where the exact derivative is infinite.
+    """
+    x = jnp.asarray(x)
+    return jnp.arccos(jnp.clip(x, -1, 1))
+
+
+@safe_arccos.defjvp
+def _safe_arccos_jvp(primals, tangents):
+    (x,), (x_dot,) = primals, tangents
+    x = jnp.asarray(x)
+    eps = jnp.finfo(x.dtype).eps
+    slope = -1 / jnp.sqrt(jnp.maximum(1 - x * x, eps))
+    return safe_arccos(x), slope * x_dot
