@@ -1,8 +1,30 @@
-"""jaxatt: differentiable spacecraft attitude and relative-motion control in JAX."""
+"""jaxatt: differentiable spacecraft attitude and relative-motion control in JAX.
+
+The top level exports the verbs and containers; components live in sub-packages:
+`jaxatt.numerics`, `jaxatt.rotations`, `jaxatt.plants`, `jaxatt.references`,
+`jaxatt.controllers`, `jaxatt.simulation` (closed loops, actuators, solvers), `jaxatt.metrics`, `jaxatt.scenarios`, `jaxatt.plot`.
+
+jaxatt never changes JAX's configuration: enable float64 yourself, first, when you need it
+(`jax.config.update("jax_enable_x64", True)`), as the CLI, notebooks and tests do.
+"""
 
 import importlib.metadata
 
-from . import numerics as numerics
+from . import (
+    controllers as controllers,
+    metrics as metrics,
+    numerics as numerics,
+    plants as plants,
+    references as references,
+    rotations as rotations,
+    simulation as simulation,
+)
+from .simulation import (
+    RESULTS as RESULTS,
+    ClosedLoop as ClosedLoop,
+    Trajectory as Trajectory,
+    simulate as simulate,
+)
 
 
 try:

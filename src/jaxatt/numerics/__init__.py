@@ -13,3 +13,4 @@ from ._switching import (
     smooth_sign as smooth_sign,
 )
 from ._trig import safe_arccos as safe_arccos
+from ._linalg import det3 as det3, inv3 as inv3, solve3 as solve3

@@ -1,0 +1,116 @@
+r"""Fixed-step integrators for the closed loop.
+
+jaxatt integrates closed loops with fixed steps on purpose: sliding-mode and other switching laws
+make adaptive step-size control collapse (STYLE.md, behaviour 3), and fixed steps give static
+shapes for `vmap`, predictable cost and clean reverse-mode gradients. `RK4` (the default) and
+`Euler` are written directly; any diffrax solver can be used at a fixed step through
+[`DiffraxSolver`][] (`simulate` wraps a bare `diffrax.AbstractSolver` automatically).
+"""
+
+import abc
+from collections.abc import Callable
+from typing import Any, ClassVar
+
+import diffrax as dfx
+import equinox as eqx
+import jax.tree_util as jtu
+from jaxtyping import Array, PyTree
+
+
+VectorField = Callable[[Any, PyTree[Array], Any], PyTree[Array]]
+
+
+def _axpy(y: PyTree[Array], h, k: PyTree[Array]) -> PyTree[Array]:
+    return jtu.tree_map(lambda yi, ki: yi + h * ki, y, k)
+
+
+class AbstractFixedStepSolver(eqx.Module):
+    """One step of size `dt` of $\\dot y = f(t, y, \\text{args})$ for a pytree `y`."""
+
+    order: eqx.AbstractClassVar[int]
+
+    @abc.abstractmethod
+    def init(self, vector_field: VectorField, t0, dt, y0: PyTree[Array], args) -> PyTree:
+        """Solver state carried between steps (`None` for one-step methods)."""
+
+    @abc.abstractmethod
+    def step(
+        self, vector_field: VectorField, t, dt, y: PyTree[Array], args, state: PyTree
+    ) -> tuple[PyTree[Array], PyTree]:
+        """`(y(t + dt), new_state)`."""
+
+
+class Euler(AbstractFixedStepSolver):
+    """Explicit Euler, order 1. With `ZeroOrderHold` and `period == dt` it is the classic
+    discrete-time simulation of a sampled controller."""
+
+    order: ClassVar[int] = 1
+
+    def init(self, vector_field, t0, dt, y0, args) -> None:
+        return None
+
+    def step(self, vector_field, t, dt, y, args, state):
+        return _axpy(y, dt, vector_field(t, y, args)), None
+
+
+class RK4(AbstractFixedStepSolver):
+    r"""The classic fourth-order Runge-Kutta method (Butcher tableau 0, 1/2, 1/2, 1; weights
+    1/6, 1/3, 1/3, 1/6): four vector-field evaluations per step, global error $O(dt^4)$ for
+    smooth dynamics. This is the integrator of the papers jaxatt reproduces."""
+
+    order: ClassVar[int] = 4
+
+    def init(self, vector_field, t0, dt, y0, args) -> None:
+        return None
+
+    def step(self, vector_field, t, dt, y, args, state):
+        half = 0.5 * dt
+        k1 = vector_field(t, y, args)
+        k2 = vector_field(t + half, _axpy(y, half, k1), args)
+        k3 = vector_field(t + half, _axpy(y, half, k2), args)
+        k4 = vector_field(t + dt, _axpy(y, dt, k3), args)
+        increment = jtu.tree_map(
+            lambda a, b, c, d: (a + 2 * b + 2 * c + d) / 6, k1, k2, k3, k4
+        )
+        return _axpy(y, dt, increment), None
+
+
+class DiffraxSolver(AbstractFixedStepSolver):
+    """Any `diffrax.AbstractSolver` (e.g. `diffrax.Tsit5()`, `diffrax.Heun()`) at a fixed step.
+
+    Every step is flagged as following a jump (`made_jump=True`), because the state may be
+    changed between steps (MRP shadow switch, quaternion renormalization) and the held control
+    may change at sample instants; first-same-as-last solvers therefore re-evaluate their first
+    stage, which is correct at the price of one evaluation per step.
+    """
+
+    solver: dfx.AbstractSolver
+    order: ClassVar[int] = 0  # see `solver.order(terms)`
+
+    def __init__(self, solver: dfx.AbstractSolver):
+        if not isinstance(solver, dfx.AbstractSolver):
+            raise ValueError(
+                f"DiffraxSolver: `solver` must be a diffrax solver, got {type(solver).__name__}."
+            )
+        self.solver = solver
+
+    def init(self, vector_field, t0, dt, y0, args):
+        return self.solver.init(dfx.ODETerm(vector_field), t0, t0 + dt, y0, args)
+
+    def step(self, vector_field, t, dt, y, args, state):
+        y1, _, _, state, _ = self.solver.step(
+            dfx.ODETerm(vector_field), t, t + dt, y, args, state, made_jump=True
+        )
+        return y1, state
+
+
+def as_fixed_step_solver(solver) -> AbstractFixedStepSolver:
+    """Accept a jaxatt solver or wrap a diffrax one; anything else is a clear error."""
+    if isinstance(solver, AbstractFixedStepSolver):
+        return solver
+    if isinstance(solver, dfx.AbstractSolver):
+        return DiffraxSolver(solver)
+    raise ValueError(
+        "simulate: `solver` must be a jaxatt solver (RK4(), Euler()) or a diffrax solver, "
+        f"got {type(solver).__name__}."
+    )

@@ -1,0 +1,63 @@
+"""Shared test models: small, fixed scenarios built once per module."""
+
+import jax.numpy as jnp
+import numpy as np
+
+import jaxatt
+from jaxatt.controllers import MRPPD, QuaternionPD
+from jaxatt.plants import (
+    MRPState,
+    QuaternionState,
+    RigidBodyMRP,
+    RigidBodyQuaternion,
+    Sinusoid,
+)
+from jaxatt.simulation import ClosedLoop
+
+
+J0 = np.array([[20.0, 1.2, 0.9], [1.2, 17.0, 1.4], [0.9, 1.4, 15.0]])
+"""Chen 2022 / Xia 2011 nominal inertia [kg m^2]."""
+
+DJ_AMPLITUDE = np.diag([1.0, 2.0, 3.0])
+DJ_FREQUENCY = np.diag([0.1, 0.2, 0.3])
+D_AMPLITUDE = np.array([0.1, 0.2, 0.3])
+D_FREQUENCY = np.array([0.1, 0.2, 0.3])
+
+Q0 = np.array([0.8832, 0.3, -0.2, -0.3]) / np.linalg.norm([0.8832, 0.3, -0.2, -0.3])
+
+
+def inertia_perturbation() -> Sinusoid:
+    return Sinusoid(jnp.asarray(DJ_AMPLITUDE), jnp.asarray(DJ_FREQUENCY))
+
+
+def disturbance() -> Sinusoid:
+    return Sinusoid(jnp.asarray(D_AMPLITUDE), jnp.asarray(D_FREQUENCY))
+
+
+def mrp_pd_loop(k1=2.0, k2=10.0, *, uncertain=True, shadow_switching=False) -> ClosedLoop:
+    """MRP plant with Chen's inertia, optional dJ(t) and d(t), under tau = -k1 sigma - k2 omega."""
+    plant = RigidBodyMRP(
+        jnp.asarray(J0),
+        inertia_perturbation() if uncertain else None,
+        disturbance() if uncertain else None,
+        shadow_switching=shadow_switching,
+    )
+    return ClosedLoop(plant, MRPPD(k1, k2))
+
+
+def quat_pd_loop(kp=2.0, kd=10.0, *, uncertain=True) -> ClosedLoop:
+    plant = RigidBodyQuaternion(
+        jnp.asarray(J0),
+        inertia_perturbation() if uncertain else None,
+        disturbance() if uncertain else None,
+    )
+    return ClosedLoop(plant, QuaternionPD(kp, kd))
+
+
+def mrp_x0() -> MRPState:
+    q = jnp.asarray(Q0)
+    return MRPState(sigma=jaxatt.rotations.mrp_from_quat(q), omega=jnp.array([0.02, -0.01, 0.03]))
+
+
+def quat_x0() -> QuaternionState:
+    return QuaternionState(q=jnp.asarray(Q0), omega=jnp.array([0.02, -0.01, 0.03]))

@@ -1,0 +1,322 @@
+"""`simulate`: accuracy against SciPy, batching, compilation, sampling, errors."""
+
+from typing import ClassVar
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import jaxatt
+from jaxatt.controllers import MRPPD, AbstractController, QuaternionPD
+from jaxatt.plants import Constant, MRPState, QuaternionState, RigidBodyMRP, RigidBodyQuaternion, Sinusoid
+from jaxatt.references import IntegratedReference
+from jaxatt.simulation import (
+    ClosedLoop,
+    Euler,
+    NormSaturation,
+    Saturation,
+    ZeroOrderHold,
+)
+
+from ..helpers import D_AMPLITUDE, D_FREQUENCY, J0, Q0, mrp_pd_loop, mrp_x0, quat_pd_loop, quat_x0
+
+
+def _skew(v):
+    return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+
+
+def _true_inertia(t):
+    return J0 + np.diag([np.sin(0.1 * t), 2 * np.sin(0.2 * t), 3 * np.sin(0.3 * t)])
+
+
+def _disturbance(t):
+    return D_AMPLITUDE * np.sin(D_FREQUENCY * t)
+
+
+def test_mrp_pd_matches_scipy_with_time_varying_inertia_and_disturbance():
+    k1, k2 = 17.0, 15.0
+    x0 = mrp_x0()
+    traj = jaxatt.simulate(mrp_pd_loop(k1, k2), x0, 0.0, 20.0, dt=1e-3, save_every=500)
+
+    def rhs(t, x):  # written out independently of the library
+        s, w = x[:3], x[3:]
+        G = 0.25 * ((1 - s @ s) * np.eye(3) + 2 * _skew(s) + 2 * np.outer(s, s))
+        u = -k1 * s - k2 * w
+        J = _true_inertia(t)
+        return np.concatenate([G @ w, np.linalg.solve(J, -np.cross(w, J @ w) + u + _disturbance(t))])
+
+    y0 = np.concatenate([np.asarray(x0.sigma), np.asarray(x0.omega)])
+    ref = solve_ivp(rhs, (0, 20), y0, t_eval=np.asarray(traj.ts), rtol=1e-11, atol=1e-13, method="DOP853")
+    ours = np.concatenate([traj.plant_states.sigma, traj.plant_states.omega], axis=1)
+    np.testing.assert_allclose(ours, ref.y.T, atol=1e-8, rtol=0)
+    assert np.max(np.abs(ours[-1] - ours[0])) > 0.05  # the run actually moved
+
+
+def test_quaternion_tracking_matches_scipy():
+    """Quaternion PD tracking Chen 2022's integrated reference, against SciPy (eqs 5-10 by hand)."""
+    kp, kd, wd_amp = 20.0, 40.0, 0.05
+    omega_d = Sinusoid(wd_amp * jnp.ones(3), jnp.pi * jnp.array([0.01, 0.02, 0.03]))
+    reference = IntegratedReference(jnp.array([1.0, 0, 0, 0]), omega_d)
+    loop = ClosedLoop(quat_pd_loop(kp, kd).plant, QuaternionPD(kp, kd), reference)
+    x0 = quat_x0()
+    traj = jaxatt.simulate(loop, x0, 0.0, 15.0, dt=1e-3, save_every=500)
+
+    def wd(t):
+        return wd_amp * np.sin(np.pi * np.array([0.01, 0.02, 0.03]) * t)
+
+    def quat_dot(q, w):
+        q0, qv = q[0], q[1:]
+        return 0.5 * np.concatenate([[-qv @ w], q0 * w + np.cross(qv, w)])
+
+    def rhs(t, x):
+        q, w, qd = x[:4], x[4:7], x[7:]
+        e0 = qd[1:] @ q[1:] + q[0] * qd[0]  # Chen eq (7)
+        ev = qd[0] * q[1:] - _skew(qd[1:]) @ q[1:] - q[0] * qd[1:]  # eq (8)
+        C = (1 - 2 * ev @ ev) * np.eye(3) + 2 * np.outer(ev, ev) - 2 * e0 * _skew(ev)  # eq (10)
+        ew = w - C @ wd(t)  # eq (9)
+        u = -kp * ev - kd * ew
+        J = _true_inertia(t)
+        w_dot = np.linalg.solve(J, -np.cross(w, J @ w) + u + _disturbance(t))
+        return np.concatenate([quat_dot(q, w), w_dot, quat_dot(qd, wd(t))])
+
+    y0 = np.concatenate([np.asarray(x0.q), np.asarray(x0.omega), [1.0, 0, 0, 0]])
+    ref = solve_ivp(rhs, (0, 15), y0, t_eval=np.asarray(traj.ts), rtol=1e-11, atol=1e-13, method="DOP853")
+    ours = np.concatenate([traj.plant_states.q, traj.plant_states.omega, traj.reference_states], axis=1)
+    np.testing.assert_allclose(ours, ref.y.T, atol=1e-8, rtol=0)
+
+
+@pytest.fixture(scope="module")
+def batch_inputs():
+    rng = np.random.default_rng(0)
+    axes = rng.normal(size=(64, 3))
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    angles = rng.uniform(0, 2.5, size=64)
+    q = np.concatenate([np.cos(angles / 2)[:, None], np.sin(angles / 2)[:, None] * axes], axis=1)
+    sigma = q[:, 1:] / (1 + q[:, :1])
+    omega = rng.uniform(-0.05, 0.05, size=(64, 3))
+    return MRPState(jnp.asarray(sigma), jnp.asarray(omega))
+
+
+def test_vmap_over_initial_conditions_equals_loop(batch_inputs):
+    loop = mrp_pd_loop(17.0, 15.0)
+
+    def run(x0):
+        return jaxatt.simulate(loop, x0, 0.0, 5.0, dt=0.01, save_every=50, throw=False)
+
+    batched = jax.vmap(run)(batch_inputs)
+    assert batched.ts.shape == (64, 11)
+    assert bool(jnp.all(batched.successful))
+    for i in range(0, 64, 7):
+        single = run(jax.tree_util.tree_map(lambda x: x[i], batch_inputs))
+        np.testing.assert_allclose(batched.plant_states.sigma[i], single.plant_states.sigma, rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(batched.signals["u"][i], single.signals["u"], rtol=1e-12, atol=1e-14)
+
+
+class _TraceCounting(AbstractController):
+    """Wraps a controller and counts how often JAX traces it (a test-only probe)."""
+
+    inner: AbstractController
+    counter: list = eqx.field(static=True)
+    measurement_type: ClassVar[type] = object
+
+    def init(self, t0, measurement, reference):
+        return self.inner.init(t0, measurement, reference)
+
+    def __call__(self, t, measurement, reference, state):
+        self.counter.append(1)
+        return self.inner(t, measurement, reference, state)
+
+    def diagnostics(self, t, measurement, reference, state):
+        return self.inner.diagnostics(t, measurement, reference, state)
+
+
+def test_changing_gain_values_does_not_recompile():
+    counter: list = []
+    plant = mrp_pd_loop().plant
+
+    def run(k1, k2):
+        loop = ClosedLoop(plant, _TraceCounting(MRPPD(k1, k2), counter))
+        return jaxatt.simulate(loop, mrp_x0(), 0.0, 1.0, dt=0.1)
+
+    a = run(1.0, 2.0)
+    traces_first = len(counter)
+    assert traces_first > 0
+    b = run(3.0, 5.0)
+    assert len(counter) == traces_first  # same compiled program, new gain values
+    assert not np.allclose(a.plant_states.omega, b.plant_states.omega)
+
+
+def _settling_loss(loop, x0):
+    traj = jaxatt.simulate(loop, x0, 0.0, 30.0, dt=0.01)
+    error = jaxatt.numerics.safe_norm(traj.signals["attitude_error"])
+    return jaxatt.metrics.settling_time(traj.ts, error, 1e-3)
+
+
+def test_gradient_of_settling_time_matches_finite_differences():
+    # Without d(t) (whose steady error d/k1 would keep the error above 1e-3 forever).
+    loop = mrp_pd_loop(17.0, 15.0, uncertain=False)
+    x0 = mrp_x0()
+    loss = eqx.filter_jit(_settling_loss)
+    grads = eqx.filter_grad(loss)(loop, x0)
+    t_settle = float(loss(loop, x0))
+    assert 5.0 < t_settle < 29.0
+
+    def fd(where, direction, h):
+        plus = eqx.tree_at(where, loop, where(loop) + h * direction)
+        minus = eqx.tree_at(where, loop, where(loop) - h * direction)
+        return (float(loss(plus, x0)) - float(loss(minus, x0))) / (2 * h)
+
+    for where, direction, h in [
+        (lambda m: m.controller.k1, 1.0, 1e-4),
+        (lambda m: m.controller.k2, 1.0, 1e-4),
+        (lambda m: m.plant.body.inertia, jnp.array([[1.0, 0, 0], [0, 0, 0], [0, 0, 0]]), 1e-4),
+        (lambda m: m.plant.body.inertia, jnp.array([[0.0, 1, 0], [1, 0, 0], [0, 0, 0]]), 1e-4),
+    ]:
+        analytic = float(jnp.sum(where(grads) * direction))
+        numeric = fd(where, direction, h)
+        assert np.isfinite(analytic)
+        assert abs(analytic - numeric) <= 1e-5 * abs(numeric), (analytic, numeric)
+
+
+def test_zero_order_hold_converges_to_continuous_at_first_order():
+    loop = mrp_pd_loop(17.0, 15.0)
+    x0 = mrp_x0()
+
+    def final_state(sampling):
+        traj = jaxatt.simulate(loop, x0, 0.0, 4.0, dt=1e-3, sampling=sampling, save_every=100)
+        return np.concatenate([traj.plant_states.sigma, traj.plant_states.omega], axis=1)
+
+    continuous = final_state(jaxatt.simulation.Continuous())
+    errors = [np.max(np.abs(final_state(ZeroOrderHold(p)) - continuous)) for p in (0.04, 0.02, 0.01)]
+    ratios = [errors[0] / errors[1], errors[1] / errors[2]]
+    # A zero-order hold is a first-order approximation: halving the period halves the error.
+    assert all(1.8 < r < 2.2 for r in ratios), (errors, ratios)
+
+
+def test_zero_order_hold_holds_the_control():
+    traj = jaxatt.simulate(
+        mrp_pd_loop(17.0, 15.0), mrp_x0(), 0.0, 1.0, dt=0.01, sampling=ZeroOrderHold(0.1)
+    )
+    u = np.asarray(traj.signals["u"])
+    for k in range(10):  # constant inside each period, changing between periods
+        block = u[10 * k : 10 * k + 10]
+        assert np.allclose(block, block[0], atol=0, rtol=0)
+    assert not np.allclose(u[0], u[10])
+
+
+def test_saturation_limits_applied_control():
+    loop = mrp_pd_loop(170.0, 150.0)
+    sat = ClosedLoop(loop.plant, loop.controller, actuator=Saturation(0.5))
+    traj = jaxatt.simulate(sat, mrp_x0(), 0.0, 2.0, dt=0.01)
+    assert np.max(np.abs(traj.signals["u"])) <= 0.5 + 1e-15
+    assert np.max(np.abs(traj.signals["u_cmd"])) > 1.0
+    norm_limited = ClosedLoop(loop.plant, loop.controller, actuator=NormSaturation(0.5))
+    traj = jaxatt.simulate(norm_limited, mrp_x0(), 0.0, 2.0, dt=0.01)
+    assert np.max(np.linalg.norm(traj.signals["u"], axis=1)) <= 0.5 + 1e-12
+
+
+def test_diffrax_solver_and_euler_agree_with_rk4():
+    loop = mrp_pd_loop(17.0, 15.0)
+    import diffrax as dfx
+
+    def final(solver, dt):
+        traj = jaxatt.simulate(loop, mrp_x0(), 0.0, 2.0, dt=dt, solver=solver, save_every=round(2 / dt))
+        return np.asarray(traj.plant_states.omega[-1])
+
+    rk4 = final(jaxatt.simulation.RK4(), 1e-3)
+    np.testing.assert_allclose(final(dfx.Tsit5(), 1e-2), rk4, atol=1e-9)
+    euler_error = [np.max(np.abs(final(Euler(), dt) - rk4)) for dt in (2e-3, 1e-3)]
+    assert 1.8 < euler_error[0] / euler_error[1] < 2.2  # first order
+
+
+def test_nonfinite_state_is_reported_not_silent():
+    # A stiff rate gain with a step far beyond RK4's stability limit: the state blows up.
+    loop = ClosedLoop(RigidBodyMRP(jnp.asarray(J0)), MRPPD(1.0, 1e5))
+    traj = jaxatt.simulate(loop, mrp_x0(), 0.0, 20.0, dt=0.1, throw=False)
+    assert traj.result == jaxatt.RESULTS.nonfinite_state
+    with pytest.raises(Exception, match="NaN or infinite"):
+        jaxatt.simulate(loop, mrp_x0(), 0.0, 20.0, dt=0.1)
+
+
+@pytest.mark.parametrize(
+    "kwargs, needle",
+    [
+        (dict(dt=0.0), "`dt` must be positive"),
+        (dict(dt=-0.1), "`dt` must be positive"),
+        (dict(t1=0.0), "`t1` must be greater than `t0`"),
+        (dict(t1=1.05), "whole multiple of `dt`"),
+        (dict(save_every=3), "`save_every` must divide"),
+        (dict(sampling=ZeroOrderHold(0.15)), "`period` must be a whole multiple of `dt`"),
+        # Built with tree_at: runtime type checking (on in this suite) would reject the
+        # constructor call itself; without it, `simulate` must catch the mistake.
+        (dict(x0=eqx.tree_at(lambda s: s.sigma, mrp_x0(), jnp.zeros(4))), "`x0.sigma` must have shape (3,)"),
+        (dict(x0=eqx.tree_at(lambda s: s.omega, mrp_x0(), jnp.zeros(2))), "`x0.omega` must have shape (3,)"),
+        (dict(x0=QuaternionState(jnp.array([1.0, 0, 0, 0]), jnp.zeros(3))), "must be an MRPState"),
+    ],
+)
+def test_bad_simulation_arguments_raise(kwargs, needle):
+    args = dict(x0=mrp_x0(), t1=1.0, dt=0.1)
+    args.update(kwargs)
+    x0, t1 = args.pop("x0"), args.pop("t1")
+    with pytest.raises(ValueError) as info:
+        jaxatt.simulate(mrp_pd_loop(), x0, 0.0, t1, **args)
+    assert needle in str(info.value)
+
+
+def test_array_time_arguments_are_rejected_with_a_reason():
+    # The annotation says `float`; without runtime type checking the check below catches it.
+    from jaxatt.simulation._simulate import _check_time
+
+    with pytest.raises(ValueError, match="`dt` must be a Python number"):
+        _check_time("dt", jnp.array(0.1))
+
+
+def test_non_unit_initial_quaternion_raises():
+    with pytest.raises(ValueError, match="`x0.q` must be a unit quaternion"):
+        jaxatt.simulate(
+            quat_pd_loop(), QuaternionState(jnp.array([0.8832, 0.3, -0.2, -0.3]) * 1.01, jnp.zeros(3)), 0.0, 1.0, dt=0.1
+        )
+    # Chen 2022's printed q(0) (norm 1.000021) is outside the 1e-6 tolerance too: normalize it.
+    with pytest.raises(ValueError, match="normalize it first"):
+        RigidBodyQuaternion(jnp.asarray(J0)).check_state(
+            QuaternionState(jnp.array([0.8832, 0.3, -0.2, -0.3]), jnp.zeros(3))
+        )
+    assert np.isclose(np.linalg.norm(Q0), 1)
+
+
+@pytest.mark.parametrize(
+    "build, needle",
+    [
+        (lambda: MRPPD(-1.0, 1.0), "MRPPD: `k1` must be positive"),
+        (lambda: MRPPD(1.0, 0.0), "MRPPD: `k2` must be positive"),
+        (lambda: QuaternionPD(1.0, jnp.array([1.0, -2.0, 1.0])), "QuaternionPD: `kd` must be positive"),
+        (lambda: Saturation(0.0), "Saturation: `limit` must be positive"),
+        (lambda: ZeroOrderHold(0.0), "`period` must be positive"),
+        (lambda: ClosedLoop(mrp_pd_loop().plant, QuaternionPD(1.0, 1.0)), "needs a plant whose state is a QuaternionState"),
+    ],
+)
+def test_bad_controller_configuration_raises(build, needle):
+    with pytest.raises(ValueError) as info:
+        build()
+    assert needle in str(info.value)
+
+
+def test_jit_of_simulate_equals_eager_call():
+    loop, x0 = mrp_pd_loop(), mrp_x0()
+    direct = jaxatt.simulate(loop, x0, 0.0, 1.0, dt=0.05)
+    jitted = eqx.filter_jit(lambda m, x: jaxatt.simulate(m, x, 0.0, 1.0, dt=0.05))(loop, x0)
+    np.testing.assert_allclose(direct.plant_states.sigma, jitted.plant_states.sigma, rtol=1e-14)
+
+
+def test_float32_runs_stay_float32():
+    loop = ClosedLoop(
+        RigidBodyMRP(jnp.asarray(J0, jnp.float32)), MRPPD(jnp.float32(17.0), jnp.float32(15.0))
+    )
+    x0 = MRPState(jnp.asarray(mrp_x0().sigma, jnp.float32), jnp.zeros(3, jnp.float32))
+    traj = jaxatt.simulate(loop, x0, 0.0, 1.0, dt=0.01)
+    assert traj.plant_states.sigma.dtype == jnp.float32
+    assert traj.signals["u"].dtype == jnp.float32
+    assert traj.ts.dtype == jnp.float32
