@@ -17,6 +17,7 @@ from . import (
     plants as plants,
     references as references,
     rotations as rotations,
+    scenarios as scenarios,
     simulation as simulation,
 )
 from .simulation import (

@@ -12,7 +12,7 @@ from scipy.integrate import solve_ivp
 import jaxatt
 from jaxatt.controllers import MRPPD, AbstractController, QuaternionPD
 from jaxatt.plants import Constant, MRPState, QuaternionState, RigidBodyMRP, RigidBodyQuaternion, Sinusoid
-from jaxatt.references import IntegratedReference
+from jaxatt.references import ConstantAttitude, IntegratedReference
 from jaxatt.simulation import (
     ClosedLoop,
     Euler,
@@ -312,8 +312,15 @@ def test_jit_of_simulate_equals_eager_call():
 
 
 def test_float32_runs_stay_float32():
+    # With x64 enabled every array must be built as float32 (defaults would be float64).
     loop = ClosedLoop(
-        RigidBodyMRP(jnp.asarray(J0, jnp.float32)), MRPPD(jnp.float32(17.0), jnp.float32(15.0))
+        RigidBodyMRP(
+            jnp.asarray(J0, jnp.float32),
+            Constant(jnp.zeros((3, 3), jnp.float32)),
+            Constant(jnp.zeros(3, jnp.float32)),
+        ),
+        MRPPD(jnp.float32(17.0), jnp.float32(15.0)),
+        ConstantAttitude(jnp.array([1.0, 0, 0, 0], jnp.float32)),
     )
     x0 = MRPState(jnp.asarray(mrp_x0().sigma, jnp.float32), jnp.zeros(3, jnp.float32))
     traj = jaxatt.simulate(loop, x0, 0.0, 1.0, dt=0.01)

@@ -1,0 +1,134 @@
+"""Time-history figures of a single simulated closed loop."""
+
+import contextlib
+from collections.abc import Iterator, Sequence
+
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+
+from ..simulation import Trajectory
+
+
+_AXIS_LABELS = ("x", "y", "z")
+
+
+@contextlib.contextmanager
+def style() -> Iterator[None]:
+    """A local matplotlib style for jaxatt figures (never changes global rcParams)."""
+    with plt.rc_context(
+        {
+            "figure.dpi": 110,
+            "axes.grid": True,
+            "grid.alpha": 0.3,
+            "axes.spines.top": False,
+            "axes.spines.right": False,
+            "legend.frameon": False,
+            "font.size": 9,
+        }
+    ):
+        yield
+
+
+def _new_axes(ax: Axes | None) -> Axes:
+    if ax is not None:
+        return ax
+    _, ax = plt.subplots(figsize=(6, 3))
+    return ax
+
+
+def plot_signal(
+    traj: Trajectory,
+    name: str,
+    *,
+    ax: Axes | None = None,
+    labels: Sequence[str] | None = None,
+    components: slice | Sequence[int] | None = None,
+    ylabel: str | None = None,
+    log: bool = False,
+) -> Axes:
+    """Plot a recorded signal `traj.signals[name]` against time, one line per component.
+
+    **Arguments:**
+    - `traj`: a single (unbatched) trajectory.
+    - `name`: a key of `traj.signals` (e.g. `"u"`, `"attitude_error"`, `"s"`).
+    - `ax`: axes to draw on; a new figure when `None`.
+    - `labels`: legend entries per component.
+    - `components`: which components to draw (e.g. `slice(1, 4)` for a quaternion's vector part).
+    - `ylabel`: the y-axis label; `log`: plot `|value|` on a log axis.
+
+    **Returns:** the axes.
+    """
+    if name not in traj.signals:
+        raise ValueError(
+            f"plot_signal: `name` must be one of {sorted(traj.signals)}, got {name!r}."
+        )
+    ts = np.asarray(traj.ts)
+    if ts.ndim != 1:
+        raise ValueError("plot_signal: `traj` must be a single trajectory (index a batch first).")
+    values = np.asarray(traj.signals[name])
+    if values.ndim == 1:
+        values = values[:, None]
+    if components is not None:
+        values = values[:, components]
+    ax = _new_axes(ax)
+    if labels is None:
+        labels = [f"{name}[{i}]" for i in range(values.shape[1])]
+    for column, label in zip(values.T, labels):
+        ax.plot(ts, np.abs(column) if log else column, label=label, lw=1.2)
+    if log:
+        ax.set_yscale("log")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel(ylabel if ylabel is not None else name)
+    ax.legend(loc="best", fontsize=8)
+    return ax
+
+
+def plot_attitude_error(traj: Trajectory, *, ax: Axes | None = None) -> Axes:
+    """Vector part of the attitude error (error quaternion $e_v$, or the error MRP)."""
+    error = np.asarray(traj.signals["attitude_error"])
+    quaternion = error.shape[-1] == 4
+    return plot_signal(
+        traj,
+        "attitude_error",
+        ax=ax,
+        components=slice(1, 4) if quaternion else None,
+        labels=[f"$e_{{v,{a}}}$" if quaternion else f"$\\sigma_{{e,{a}}}$" for a in _AXIS_LABELS],
+        ylabel="attitude error (quaternion vector part)" if quaternion else "attitude error (MRP)",
+    )
+
+
+def plot_rate_error(traj: Trajectory, *, ax: Axes | None = None) -> Axes:
+    """Angular-rate error $\\omega - C\\omega_d$ [rad/s]."""
+    return plot_signal(
+        traj,
+        "rate_error",
+        ax=ax,
+        labels=[f"$e_{{\\omega,{a}}}$" for a in _AXIS_LABELS],
+        ylabel="rate error [rad/s]",
+    )
+
+
+def plot_control(
+    traj: Trajectory, *, ax: Axes | None = None, limit: float | None = None
+) -> Axes:
+    """Applied control torque [N m], with the saturation limit drawn when given."""
+    ax = plot_signal(
+        traj, "u", ax=ax, labels=[f"$u_{a}$" for a in _AXIS_LABELS], ylabel="torque [N m]"
+    )
+    if limit is not None:
+        for sign in (-1, 1):
+            ax.axhline(sign * limit, color="k", lw=0.8, ls="--")
+    return ax
+
+
+def plot_overview(traj: Trajectory, *, title: str | None = None, limit: float | None = None) -> Figure:
+    """A 3-panel figure: attitude error, rate error and applied torque against time."""
+    fig, axes = plt.subplots(3, 1, figsize=(7, 7.5), sharex=True, layout="constrained")
+    plot_attitude_error(traj, ax=axes[0])
+    plot_rate_error(traj, ax=axes[1])
+    plot_control(traj, ax=axes[2], limit=limit)
+    if title:
+        fig.suptitle(title)
+    return fig

@@ -1,0 +1,11 @@
+"""Scenarios: one public module per paper (plus the built-in demo), each with `build(...)` and
+`reproduce(out_dir, *, short=False)`. `REGISTRY` maps the CLI names to modules."""
+
+from types import ModuleType
+
+from . import rigid_body_pd as rigid_body_pd
+
+
+REGISTRY: dict[str, ModuleType] = {
+    "rigid_body_pd": rigid_body_pd,
+}
