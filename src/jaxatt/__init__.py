@@ -28,6 +28,15 @@ from .simulation import (
 )
 
 
+def __getattr__(name: str):
+    # `jaxatt.plot` imports matplotlib, so it loads on first use rather than with `jaxatt`.
+    if name == "plot":
+        import importlib
+
+        return importlib.import_module(".plot", __name__)
+    raise AttributeError(f"module 'jaxatt' has no attribute {name!r}")
+
+
 try:
     __version__ = importlib.metadata.version("jaxatt")
 except importlib.metadata.PackageNotFoundError:  # running from a source tree

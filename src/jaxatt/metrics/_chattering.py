@@ -2,13 +2,13 @@
 
 import jax
 import jax.numpy as jnp
-from jaxtyping import ArrayLike, Float, Real
+from jaxtyping import Array, ArrayLike, Float, Real
 
 from .._custom_types import RealScalarLike, Scalar
 from ._signals import as_signal, as_times
 
 
-def _bound(where: str, name: str, value: RealScalarLike | None, default: float):
+def _bound(where: str, name: str, value: RealScalarLike | None, default: float) -> Array:
     if value is None:
         return jnp.asarray(default)
     if isinstance(value, (str, bytes)):
@@ -17,6 +17,13 @@ def _bound(where: str, name: str, value: RealScalarLike | None, default: float):
     if arr.ndim != 0:
         raise ValueError(f"{where}: `{name}` must be a scalar, got shape {arr.shape}.")
     return arr
+
+
+@jax.jit
+def _chattering(ts: Array, u: Array, start: Array, end: Array) -> Array:
+    inside = (ts[:-1] >= start) & (ts[1:] <= end)
+    increments = jnp.sum(jnp.abs(jnp.diff(u, axis=0)), axis=-1)
+    return jnp.sum(jnp.where(inside, increments, 0.0))
 
 
 def chattering(
@@ -67,6 +74,4 @@ def chattering(
             f"{where}: `t_start` must not exceed `t_end`, got t_start={float(start)!r} and "
             f"t_end={float(end)!r}."
         )
-    inside = (ts[:-1] >= start) & (ts[1:] <= end)
-    increments = jnp.sum(jnp.abs(jnp.diff(u, axis=0)), axis=-1)
-    return jnp.sum(jnp.where(inside, increments, 0.0))
+    return _chattering(ts, u, start, end)

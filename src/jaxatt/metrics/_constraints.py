@@ -1,5 +1,6 @@
 """Constraint margins: how close a signal comes to a magnitude bound."""
 
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
@@ -11,7 +12,7 @@ from ._signals import as_signal
 _HINT = " For a scalar signal pass x[:, None]."
 
 
-def _bound(where: str, bound, x: Array) -> Array:
+def _bound(where: str, bound: ArrayLike, x: Array) -> Array:
     bound = check_positive(where, "bound", bound)
     if bound.shape not in ((), (x.shape[1],)):
         raise ValueError(
@@ -19,6 +20,17 @@ def _bound(where: str, bound, x: Array) -> Array:
             f"({x.shape[1]},)), got shape {bound.shape}."
         )
     return bound
+
+
+@jax.jit
+def _constraint_margin(x: Array, bound: Array) -> Array:
+    return jnp.min(bound - jnp.max(jnp.abs(x), axis=0))
+
+
+@jax.jit
+def _constraint_violated(x: Array, bound: Array) -> Array:
+    # `max` propagates NaN, and `~(nan < b)` is True.
+    return jnp.any(~(jnp.max(jnp.abs(x), axis=0) < bound))
 
 
 def max_abs(x: Float[ArrayLike, "T n"]) -> Float[Array, " n"]:
@@ -57,7 +69,7 @@ def constraint_margin(
     where = "constraint_margin"
     x = as_signal(where, "x", x, 2, _HINT)
     bound = _bound(where, bound, x)
-    return jnp.min(bound - jnp.max(jnp.abs(x), axis=0))
+    return _constraint_margin(x, bound)
 
 
 def constraint_violated(
@@ -74,5 +86,4 @@ def constraint_violated(
     where = "constraint_violated"
     x = as_signal(where, "x", x, 2, _HINT)
     bound = _bound(where, bound, x)
-    # `max` propagates NaN, and `~(nan < b)` is True.
-    return jnp.any(~(jnp.max(jnp.abs(x), axis=0) < bound))
+    return _constraint_violated(x, bound)

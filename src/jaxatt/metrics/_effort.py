@@ -1,5 +1,6 @@
 """Control effort and peak control."""
 
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float, Real
 
@@ -8,6 +9,11 @@ from ._signals import as_signal, as_times, trapezoid
 
 
 _HINT = " For a single input pass u[:, None]."
+
+
+@jax.jit
+def _control_effort(ts: Array, u: Array) -> Array:
+    return trapezoid(ts, jnp.sum(u * u, axis=-1))
 
 
 def control_effort(ts: Real[ArrayLike, " T"], u: Float[ArrayLike, "T m"]) -> Scalar:
@@ -23,7 +29,7 @@ def control_effort(ts: Real[ArrayLike, " T"], u: Float[ArrayLike, "T m"]) -> Sca
     """
     u = as_signal("control_effort", "u", u, 2, _HINT)
     ts = as_times("control_effort", ts, "u", u)
-    return trapezoid(ts, jnp.sum(u * u, axis=-1))
+    return _control_effort(ts, u)
 
 
 def peak(u: Float[ArrayLike, "T m"]) -> Scalar:

@@ -1,9 +1,20 @@
 """Overshoot of a regulated error: how far each component swings past zero."""
 
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from ._signals import as_signal
+
+
+@jax.jit
+def _overshoot(x: Array) -> Array:
+    x0 = x[0]
+    direction = jnp.sign(x0)
+    excursion = jnp.maximum(jnp.max(-direction[None, :] * x, axis=0), 0.0)
+    nonzero = x0 != 0
+    scale = jnp.where(nonzero, jnp.abs(x0), 1.0)
+    return jnp.where(nonzero, excursion / scale, 0.0)
 
 
 def overshoot(x: Float[ArrayLike, "T n"]) -> Float[Array, " n"]:
@@ -29,9 +40,4 @@ def overshoot(x: Float[ArrayLike, "T n"]) -> Float[Array, " n"]:
     $1/|x_0|$; components with $x_0 = 0$ get gradient 0 (double `where`, no NaN).
     """
     x = as_signal("overshoot", "x", x, 2, " For a scalar signal pass x[:, None].")
-    x0 = x[0]
-    direction = jnp.sign(x0)
-    excursion = jnp.maximum(jnp.max(-direction[None, :] * x, axis=0), 0.0)
-    nonzero = x0 != 0
-    scale = jnp.where(nonzero, jnp.abs(x0), 1.0)
-    return jnp.where(nonzero, excursion / scale, 0.0)
+    return _overshoot(x)

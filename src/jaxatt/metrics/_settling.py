@@ -23,6 +23,27 @@ def _last_above(x: Array, tol: Array) -> tuple[Array, Array]:
     return jax.lax.stop_gradient(k), jnp.any(outside)
 
 
+@jax.jit
+def _settling_time(ts: Array, x: Array, tol: Array) -> Array:
+    n = x.shape[0]
+    k, any_outside = _last_above(x, tol)
+    k1 = jnp.minimum(k + 1, n - 1)
+    x_k, x_k1 = x[k], x[k1]
+    t_k, t_k1 = ts[k], ts[k1]
+    interior = any_outside & (k < n - 1)
+    # Inside the interior branch x_k > tol >= x_k1, so the denominator is positive. Elsewhere it
+    # may be 0 (k = T - 1) or inf/NaN: the double where keeps those out of the backward pass.
+    interpolate = interior & jnp.isfinite(x_k)
+    safe_x_k = jnp.where(interpolate, x_k, 1.0)
+    safe_x_k1 = jnp.where(interpolate, x_k1, 0.0)
+    safe_tol = jnp.where(interpolate, tol, 0.5)
+    fraction = (safe_x_k - safe_tol) / (safe_x_k - safe_x_k1)
+    crossing = jnp.where(interpolate, t_k + fraction * (t_k1 - t_k), t_k1)
+    dtype = jnp.result_type(ts, x)
+    result = jnp.where(any_outside, jnp.where(interior, crossing, jnp.inf), ts[0])
+    return result.astype(dtype)
+
+
 def settling_time(
     ts: Real[ArrayLike, " T"], x: Float[ArrayLike, " T"], tol: RealScalarLike
 ) -> Scalar:
@@ -65,23 +86,7 @@ def settling_time(
     x = as_signal(where, "x", x, 1, " Pass a norm, e.g. jaxatt.numerics.safe_norm(e, axis=-1).")
     ts = as_times(where, ts, "x", x)
     tol = check_positive(where, "tol", tol)
-    n = x.shape[0]
-    k, any_outside = _last_above(x, tol)
-    k1 = jnp.minimum(k + 1, n - 1)
-    x_k, x_k1 = x[k], x[k1]
-    t_k, t_k1 = ts[k], ts[k1]
-    interior = any_outside & (k < n - 1)
-    # Inside the interior branch x_k > tol >= x_k1, so the denominator is positive. Elsewhere it
-    # may be 0 (k = T - 1) or inf/NaN: the double where keeps those out of the backward pass.
-    interpolate = interior & jnp.isfinite(x_k)
-    safe_x_k = jnp.where(interpolate, x_k, 1.0)
-    safe_x_k1 = jnp.where(interpolate, x_k1, 0.0)
-    safe_tol = jnp.where(interpolate, tol, 0.5)
-    fraction = (safe_x_k - safe_tol) / (safe_x_k - safe_x_k1)
-    crossing = jnp.where(interpolate, t_k + fraction * (t_k1 - t_k), t_k1)
-    dtype = jnp.result_type(ts, x)
-    result = jnp.where(any_outside, jnp.where(interior, crossing, jnp.inf), ts[0])
-    return result.astype(dtype)
+    return _settling_time(ts, x, tol)
 
 
 def settled(
@@ -100,6 +105,17 @@ def settled(
     as_times(where, ts, "x", x)
     tol = check_positive(where, "tol", tol)
     return x[-1] <= tol
+
+
+@jax.jit
+def _soft_settling_time(ts: Array, x: Array, tol: Array, width: Array) -> Array:
+    dtype = jnp.result_type(ts, x, tol, width)
+    x = x.astype(dtype)
+    positive = x > jnp.finfo(dtype).tiny
+    log_x = jnp.log(jnp.where(positive, x, 1.0))
+    z = jnp.where(positive, (log_x - jnp.log(tol)) / width, -jnp.inf)
+    above = jax.nn.sigmoid(z)
+    return trapezoid(ts.astype(dtype), above)
 
 
 def soft_settling_time(
@@ -144,13 +160,17 @@ def soft_settling_time(
     ts = as_times(where, ts, "x", x)
     tol = check_positive(where, "tol", tol)
     width = check_positive(where, "width", width)
-    dtype = jnp.result_type(ts, x, tol, width)
-    x = x.astype(dtype)
-    positive = x > jnp.finfo(dtype).tiny
-    log_x = jnp.log(jnp.where(positive, x, 1.0))
-    z = jnp.where(positive, (log_x - jnp.log(tol)) / width, -jnp.inf)
-    above = jax.nn.sigmoid(z)
-    return trapezoid(ts.astype(dtype), above)
+    return _soft_settling_time(ts, x, tol, width)
+
+
+@jax.jit
+def _itae(ts: Array, x: Array) -> Array:
+    return trapezoid(ts, (ts - ts[0]) * jnp.abs(x))
+
+
+@jax.jit
+def _iae(ts: Array, x: Array) -> Array:
+    return trapezoid(ts, jnp.abs(x))
 
 
 def itae(ts: Real[ArrayLike, " T"], x: Float[ArrayLike, " T"]) -> Scalar:
@@ -171,7 +191,7 @@ def itae(ts: Real[ArrayLike, " T"], x: Float[ArrayLike, " T"]) -> Scalar:
     where = "itae"
     x = as_signal(where, "x", x, 1)
     ts = as_times(where, ts, "x", x)
-    return trapezoid(ts, (ts - ts[0]) * jnp.abs(x))
+    return _itae(ts, x)
 
 
 def iae(ts: Real[ArrayLike, " T"], x: Float[ArrayLike, " T"]) -> Scalar:
@@ -188,4 +208,4 @@ def iae(ts: Real[ArrayLike, " T"], x: Float[ArrayLike, " T"]) -> Scalar:
     where = "iae"
     x = as_signal(where, "x", x, 1)
     ts = as_times(where, ts, "x", x)
-    return trapezoid(ts, jnp.abs(x))
+    return _iae(ts, x)

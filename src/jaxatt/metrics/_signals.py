@@ -5,6 +5,12 @@ mismatched lengths are reported at trace time with a `ValueError` naming the arg
 sample times are checked for monotonicity only when they are concrete: a traced `ts` (from a
 `diffrax` solve inside `jit`) may legitimately hold `inf` after a failed step with
 `throw=False`, and a metric must not abort a Monte Carlo batch because of one bad sample.
+
+Each public metric validates its arguments in Python and hands the arrays to a private
+`jax.jit` core. Under an outer `jit`/`vmap`/`grad` the core is simply inlined; called eagerly
+(the usual notebook use after `simulate`) it compiles once per input shape instead of
+dispatching some fifty primitives one by one (first call of `settling_time`: about 2 s op by op
+against 0.3 s compiled on this CPU; later calls: milliseconds against microseconds).
 """
 
 import jax
