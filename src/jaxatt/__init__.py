@@ -2,7 +2,8 @@
 
 The top level exports the verbs and containers; components live in sub-packages:
 `jaxatt.numerics`, `jaxatt.rotations`, `jaxatt.plants`, `jaxatt.references`,
-`jaxatt.controllers`, `jaxatt.simulation` (closed loops, actuators, solvers), `jaxatt.metrics`, `jaxatt.scenarios`, `jaxatt.plot`.
+`jaxatt.controllers`, `jaxatt.simulation` (closed loops, actuators, solvers),
+`jaxatt.metrics`, `jaxatt.scenarios`, `jaxatt.plot`.
 
 jaxatt never changes JAX's configuration: enable float64 yourself, first, when you need it
 (`jax.config.update("jax_enable_x64", True)`), as the CLI, notebooks and tests do.

@@ -73,9 +73,7 @@ def check_positive(where: str, name: str, value: ArrayLike) -> Array:
 
 
 def check_nonnegative(where: str, name: str, value: ArrayLike) -> Array:
-    return check(
-        where, name, value, lambda x: jnp.isfinite(x) & (x >= 0), "must be non-negative"
-    )
+    return check(where, name, value, lambda x: jnp.isfinite(x) & (x >= 0), "must be non-negative")
 
 
 def check_in_open_interval(
@@ -96,9 +94,7 @@ def check_shape(where: str, name: str, value: ArrayLike, shape: tuple[int, ...])
     """Convert to a floating array and require an exact shape (always decidable at trace time)."""
     arr = _as_float_array(value, name, where)
     if arr.shape != shape:
-        raise ValueError(
-            f"{where}: `{name}` must have shape {shape}, got shape {arr.shape}."
-        )
+        raise ValueError(f"{where}: `{name}` must have shape {shape}, got shape {arr.shape}.")
     return arr
 
 

@@ -104,10 +104,14 @@ def test_time_varying_inertia_and_disturbance_enter_euler_equation():
     t, u = 2.5, jnp.array([0.3, -0.2, 0.1])
     J = np.asarray(J_ASYM) + np.diag([np.sin(0.25), 2 * np.sin(0.5), 3 * np.sin(0.75)])
     w = np.asarray(OMEGA0)
-    torque = -np.cross(w, J @ w) + np.asarray(u) + np.array([0.1, 0.2, 0.3]) * np.sin(
-        np.array([0.1, 0.2, 0.3]) * t
+    torque = (
+        -np.cross(w, J @ w)
+        + np.asarray(u)
+        + np.array([0.1, 0.2, 0.3]) * np.sin(np.array([0.1, 0.2, 0.3]) * t)
     )
-    np.testing.assert_allclose(body.angular_acceleration(t, OMEGA0, u), np.linalg.solve(J, torque), rtol=1e-13)
+    np.testing.assert_allclose(
+        body.angular_acceleration(t, OMEGA0, u), np.linalg.solve(J, torque), rtol=1e-13
+    )
 
 
 def test_signals_compose():
@@ -122,11 +126,20 @@ def test_signals_compose():
 @pytest.mark.parametrize(
     "build, needle",
     [
-        (lambda: RigidBody(jnp.diag(jnp.array([1.0, -1.0, 2.0]))), "`inertia` must be a symmetric positive-definite"),
+        (
+            lambda: RigidBody(jnp.diag(jnp.array([1.0, -1.0, 2.0]))),
+            "`inertia` must be a symmetric positive-definite",
+        ),
         (lambda: RigidBody(jnp.array([[1.0, 0.5, 0], [0, 1, 0], [0, 0, 1]])), "`inertia`"),
         (lambda: RigidBody(jnp.eye(2)), "`inertia` must have shape (3, 3)"),
-        (lambda: RigidBody(jnp.eye(3), disturbance=Constant(jnp.zeros(2))), "`disturbance` must return arrays of shape (3,)"),
-        (lambda: RigidBody(jnp.eye(3), inertia_perturbation=Constant(jnp.zeros(3))), "`inertia_perturbation`"),
+        (
+            lambda: RigidBody(jnp.eye(3), disturbance=Constant(jnp.zeros(2))),
+            "`disturbance` must return arrays of shape (3,)",
+        ),
+        (
+            lambda: RigidBody(jnp.eye(3), inertia_perturbation=Constant(jnp.zeros(3))),
+            "`inertia_perturbation`",
+        ),
         (lambda: Pulse(1.0, start=0.0, width=-1.0), "`width` must be positive"),
         (lambda: Pulse(1.0, start=0.0, width=1.0, period=0.5), "`period` must exceed `width`"),
         (lambda: Sinusoid(jnp.ones(3), jnp.ones(2)), "must broadcast together"),

@@ -11,7 +11,14 @@ from scipy.integrate import solve_ivp
 
 import jaxatt
 from jaxatt.controllers import MRPPD, AbstractController, QuaternionPD
-from jaxatt.plants import Constant, MRPState, QuaternionState, RigidBodyMRP, RigidBodyQuaternion, Sinusoid
+from jaxatt.plants import (
+    Constant,
+    MRPState,
+    QuaternionState,
+    RigidBodyMRP,
+    RigidBodyQuaternion,
+    Sinusoid,
+)
 from jaxatt.references import ConstantAttitude, IntegratedReference
 from jaxatt.simulation import (
     ClosedLoop,
@@ -46,10 +53,14 @@ def test_mrp_pd_matches_scipy_with_time_varying_inertia_and_disturbance():
         G = 0.25 * ((1 - s @ s) * np.eye(3) + 2 * _skew(s) + 2 * np.outer(s, s))
         u = -k1 * s - k2 * w
         J = _true_inertia(t)
-        return np.concatenate([G @ w, np.linalg.solve(J, -np.cross(w, J @ w) + u + _disturbance(t))])
+        return np.concatenate(
+            [G @ w, np.linalg.solve(J, -np.cross(w, J @ w) + u + _disturbance(t))]
+        )
 
     y0 = np.concatenate([np.asarray(x0.sigma), np.asarray(x0.omega)])
-    ref = solve_ivp(rhs, (0, 20), y0, t_eval=np.asarray(traj.ts), rtol=1e-11, atol=1e-13, method="DOP853")
+    ref = solve_ivp(
+        rhs, (0, 20), y0, t_eval=np.asarray(traj.ts), rtol=1e-11, atol=1e-13, method="DOP853"
+    )
     ours = np.concatenate([traj.plant_states.sigma, traj.plant_states.omega], axis=1)
     np.testing.assert_allclose(ours, ref.y.T, atol=1e-8, rtol=0)
     assert np.max(np.abs(ours[-1] - ours[0])) > 0.05  # the run actually moved
@@ -83,8 +94,12 @@ def test_quaternion_tracking_matches_scipy():
         return np.concatenate([quat_dot(q, w), w_dot, quat_dot(qd, wd(t))])
 
     y0 = np.concatenate([np.asarray(x0.q), np.asarray(x0.omega), [1.0, 0, 0, 0]])
-    ref = solve_ivp(rhs, (0, 15), y0, t_eval=np.asarray(traj.ts), rtol=1e-11, atol=1e-13, method="DOP853")
-    ours = np.concatenate([traj.plant_states.q, traj.plant_states.omega, traj.reference_states], axis=1)
+    ref = solve_ivp(
+        rhs, (0, 15), y0, t_eval=np.asarray(traj.ts), rtol=1e-11, atol=1e-13, method="DOP853"
+    )
+    ours = np.concatenate(
+        [traj.plant_states.q, traj.plant_states.omega, traj.reference_states], axis=1
+    )
     np.testing.assert_allclose(ours, ref.y.T, atol=1e-8, rtol=0)
 
 
@@ -111,8 +126,12 @@ def test_vmap_over_initial_conditions_equals_loop(batch_inputs):
     assert bool(jnp.all(batched.successful))
     for i in range(0, 64, 7):
         single = run(jax.tree_util.tree_map(lambda x: x[i], batch_inputs))
-        np.testing.assert_allclose(batched.plant_states.sigma[i], single.plant_states.sigma, rtol=1e-12, atol=1e-14)
-        np.testing.assert_allclose(batched.signals["u"][i], single.signals["u"], rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(
+            batched.plant_states.sigma[i], single.plant_states.sigma, rtol=1e-12, atol=1e-14
+        )
+        np.testing.assert_allclose(
+            batched.signals["u"][i], single.signals["u"], rtol=1e-12, atol=1e-14
+        )
 
 
 class _TraceCounting(AbstractController):
@@ -190,7 +209,9 @@ def test_zero_order_hold_converges_to_continuous_at_first_order():
         return np.concatenate([traj.plant_states.sigma, traj.plant_states.omega], axis=1)
 
     continuous = final_state(jaxatt.simulation.Continuous())
-    errors = [np.max(np.abs(final_state(ZeroOrderHold(p)) - continuous)) for p in (0.04, 0.02, 0.01)]
+    errors = [
+        np.max(np.abs(final_state(ZeroOrderHold(p)) - continuous)) for p in (0.04, 0.02, 0.01)
+    ]
     ratios = [errors[0] / errors[1], errors[1] / errors[2]]
     # A zero-order hold is a first-order approximation: halving the period halves the error.
     assert all(1.8 < r < 2.2 for r in ratios), (errors, ratios)
@@ -223,7 +244,9 @@ def test_diffrax_solver_and_euler_agree_with_rk4():
     import diffrax as dfx
 
     def final(solver, dt):
-        traj = jaxatt.simulate(loop, mrp_x0(), 0.0, 2.0, dt=dt, solver=solver, save_every=round(2 / dt))
+        traj = jaxatt.simulate(
+            loop, mrp_x0(), 0.0, 2.0, dt=dt, solver=solver, save_every=round(2 / dt)
+        )
         return np.asarray(traj.plant_states.omega[-1])
 
     rk4 = final(jaxatt.simulation.RK4(), 1e-3)
@@ -252,8 +275,14 @@ def test_nonfinite_state_is_reported_not_silent():
         (dict(sampling=ZeroOrderHold(0.15)), "`period` must be a whole multiple of `dt`"),
         # Built with tree_at: runtime type checking (on in this suite) would reject the
         # constructor call itself; without it, `simulate` must catch the mistake.
-        (dict(x0=eqx.tree_at(lambda s: s.sigma, mrp_x0(), jnp.zeros(4))), "`x0.sigma` must have shape (3,)"),
-        (dict(x0=eqx.tree_at(lambda s: s.omega, mrp_x0(), jnp.zeros(2))), "`x0.omega` must have shape (3,)"),
+        (
+            dict(x0=eqx.tree_at(lambda s: s.sigma, mrp_x0(), jnp.zeros(4))),
+            "`x0.sigma` must have shape (3,)",
+        ),
+        (
+            dict(x0=eqx.tree_at(lambda s: s.omega, mrp_x0(), jnp.zeros(2))),
+            "`x0.omega` must have shape (3,)",
+        ),
         (dict(x0=QuaternionState(jnp.array([1.0, 0, 0, 0]), jnp.zeros(3))), "must be an MRPState"),
     ],
 )
@@ -277,7 +306,11 @@ def test_array_time_arguments_are_rejected_with_a_reason():
 def test_non_unit_initial_quaternion_raises():
     with pytest.raises(ValueError, match="`x0.q` must be a unit quaternion"):
         jaxatt.simulate(
-            quat_pd_loop(), QuaternionState(jnp.array([0.8832, 0.3, -0.2, -0.3]) * 1.01, jnp.zeros(3)), 0.0, 1.0, dt=0.1
+            quat_pd_loop(),
+            QuaternionState(jnp.array([0.8832, 0.3, -0.2, -0.3]) * 1.01, jnp.zeros(3)),
+            0.0,
+            1.0,
+            dt=0.1,
         )
     # Chen 2022's printed q(0) (norm 1.000021) is outside the 1e-6 tolerance too: normalize it.
     with pytest.raises(ValueError, match="normalize it first"):
@@ -292,10 +325,16 @@ def test_non_unit_initial_quaternion_raises():
     [
         (lambda: MRPPD(-1.0, 1.0), "MRPPD: `k1` must be positive"),
         (lambda: MRPPD(1.0, 0.0), "MRPPD: `k2` must be positive"),
-        (lambda: QuaternionPD(1.0, jnp.array([1.0, -2.0, 1.0])), "QuaternionPD: `kd` must be positive"),
+        (
+            lambda: QuaternionPD(1.0, jnp.array([1.0, -2.0, 1.0])),
+            "QuaternionPD: `kd` must be positive",
+        ),
         (lambda: Saturation(0.0), "Saturation: `limit` must be positive"),
         (lambda: ZeroOrderHold(0.0), "`period` must be positive"),
-        (lambda: ClosedLoop(mrp_pd_loop().plant, QuaternionPD(1.0, 1.0)), "needs a plant whose state is a QuaternionState"),
+        (
+            lambda: ClosedLoop(mrp_pd_loop().plant, QuaternionPD(1.0, 1.0)),
+            "needs a plant whose state is a QuaternionState",
+        ),
     ],
 )
 def test_bad_controller_configuration_raises(build, needle):

@@ -8,7 +8,13 @@ from .._custom_types import RealScalarLike, Vec3
 from .._validation import check_positive
 from ..plants import MRPState, QuaternionState
 from ..references import AttitudeReference
-from ..rotations import attitude_error_mrp, attitude_error_quat, mrp_from_quat, rate_error, rate_error_mrp
+from ..rotations import (
+    attitude_error_mrp,
+    attitude_error_quat,
+    mrp_from_quat,
+    rate_error,
+    rate_error_mrp,
+)
 from ._base import AbstractController
 
 

@@ -22,7 +22,7 @@ def det3(a: Float[ArrayLike, "3 3"]) -> Float[Array, ""]:
 
 
 def solve3(a: Float[ArrayLike, "3 3"], b: Float[ArrayLike, "3"]) -> Float[Array, "3"]:
-    r"""Solve $a x = b$ for a non-singular 3x3 matrix by Cramer's rule, $x = \mathrm{adj}(a) b / \det a$.
+    r"""Solve $a x = b$ (non-singular 3x3 `a`) by Cramer's rule, $x = \mathrm{adj}(a) b / \det a$.
 
     Exact up to rounding for well-conditioned `a` (an inertia matrix, condition number
     $\lesssim 10^3$); differentiable in `a` and `b`. Singular `a` gives inf/NaN: callers pass

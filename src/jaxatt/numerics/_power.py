@@ -22,7 +22,7 @@ def _log_abs(ax: Array) -> Array:
 
 
 @jax.custom_jvp
-def sig_pow(x: Float[ArrayLike, "*shape"], a: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
+def sig_pow(x: Float[ArrayLike, "*#shape"], a: Float[ArrayLike, "*#shape"]) -> Float[Array, "..."]:
     r"""Signed power $\mathrm{sig}^a(x) = |x|^a \operatorname{sign}(x)$, elementwise.
 
     `sign(0) = 0`, so `sig_pow(0, a) = 0` for every `a > 0`. `x` and `a` broadcast.
@@ -60,7 +60,7 @@ def _sig_pow_jvp(primals, tangents):
     return value, tangent
 
 
-def abs_pow(x: Float[ArrayLike, "*shape"], a: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
+def abs_pow(x: Float[ArrayLike, "*#shape"], a: Float[ArrayLike, "*#shape"]) -> Float[Array, "..."]:
     r"""Absolute power $|x|^a$ with the same derivative conventions as [`sig_pow`][].
 
     $|x|^a = \mathrm{sig}^a(x)\operatorname{sign}(x)$ away from 0 and 0 at x = 0 (for a > 0), so the

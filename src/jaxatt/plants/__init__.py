@@ -1,4 +1,5 @@
-"""Plants: vector fields of the controlled systems, with their uncertainty and disturbance signals."""
+"""Plants: vector fields of the controlled systems, with their uncertainty and disturbance
+signals."""
 
 from ._base import AbstractPlant as AbstractPlant
 from ._rigid_body import (

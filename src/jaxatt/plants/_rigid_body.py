@@ -83,7 +83,7 @@ def _check_rate(where: str, name: str, omega) -> Vec3:
 
 
 class QuaternionState(eqx.Module):
-    """Attitude quaternion `q` (scalar first, body relative to inertial) and body rate `omega` [rad/s].
+    """Attitude quaternion `q` (scalar first, body relative to inertial), body rate `omega` [rad/s].
 
     Leading batch axes are allowed (a batch of initial states for `vmap`).
     """
@@ -93,7 +93,7 @@ class QuaternionState(eqx.Module):
 
 
 class MRPState(eqx.Module):
-    """Modified Rodrigues parameters `sigma` (body relative to inertial) and body rate `omega` [rad/s].
+    """Modified Rodrigues parameters `sigma` (body relative to inertial), body rate `omega` [rad/s].
 
     Leading batch axes are allowed (a batch of initial states for `vmap`).
     """
@@ -103,7 +103,7 @@ class MRPState(eqx.Module):
 
 
 class RigidBodyQuaternion(AbstractPlant):
-    r"""Rigid body with unit-quaternion attitude, $\dot q = \tfrac12 E(q)\omega$ plus [`RigidBody`][].
+    r"""Rigid body with quaternion attitude, $\dot q = \tfrac12 E(q)\omega$, plus [`RigidBody`][].
 
     **Arguments:** those of [`RigidBody`][] (`inertia`, `inertia_perturbation`, `disturbance`)
     and

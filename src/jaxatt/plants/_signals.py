@@ -172,4 +172,3 @@ def check_signal_shape(where: str, name: str, signal: AbstractSignal, shape: tup
         raise ValueError(
             f"{where}: `{name}` must return arrays of shape {shape}, got shape {out.shape}."
         )
-

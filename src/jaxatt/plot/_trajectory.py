@@ -110,9 +110,7 @@ def plot_rate_error(traj: Trajectory, *, ax: Axes | None = None) -> Axes:
     )
 
 
-def plot_control(
-    traj: Trajectory, *, ax: Axes | None = None, limit: float | None = None
-) -> Axes:
+def plot_control(traj: Trajectory, *, ax: Axes | None = None, limit: float | None = None) -> Axes:
     """Applied control torque [N m], with the saturation limit drawn when given."""
     ax = plot_signal(
         traj, "u", ax=ax, labels=[f"$u_{a}$" for a in _AXIS_LABELS], ylabel="torque [N m]"
@@ -123,7 +121,9 @@ def plot_control(
     return ax
 
 
-def plot_overview(traj: Trajectory, *, title: str | None = None, limit: float | None = None) -> Figure:
+def plot_overview(
+    traj: Trajectory, *, title: str | None = None, limit: float | None = None
+) -> Figure:
     """A 3-panel figure: attitude error, rate error and applied torque against time."""
     fig, axes = plt.subplots(3, 1, figsize=(7, 7.5), sharex=True, layout="constrained")
     plot_attitude_error(traj, ax=axes[0])

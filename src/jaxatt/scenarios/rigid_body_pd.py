@@ -77,7 +77,9 @@ def random_initial_states(key, n: int, max_rate: float = 0.05) -> MRPState:
         axis=-1,
     )
     q = jnp.where(q[:, :1] < 0, -q, q)  # short rotation: |sigma| <= 1
-    return MRPState(jax.vmap(mrp_from_quat)(q), jr.uniform(k_w, (n, 3), minval=-max_rate, maxval=max_rate))
+    return MRPState(
+        jax.vmap(mrp_from_quat)(q), jr.uniform(k_w, (n, 3), minval=-max_rate, maxval=max_rate)
+    )
 
 
 @eqx.filter_jit
@@ -118,7 +120,9 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, batch: int = 
         "samples": n,
         "failed_samples": int((~ok).sum()),
         "settled_fraction": float(np.isfinite(times).mean()),
-        "settling_time_mean": float(np.mean(times[np.isfinite(times)])) if np.isfinite(times).any() else None,
+        "settling_time_mean": float(np.mean(times[np.isfinite(times)]))
+        if np.isfinite(times).any()
+        else None,
         "settling_time_max": float(np.max(times)),
         "peak_torque_max": float(np.max(batch_metrics["peak_torque"])),
     }

@@ -41,7 +41,11 @@ def _step_count(t0: float, t1: float, dt: float, save_every) -> int:
             "simulate: `t1 - t0` must be a whole multiple of `dt`, got "
             f"t0={t0}, t1={t1}, dt={dt} ({ratio:.6g} steps)."
         )
-    if isinstance(save_every, bool) or not isinstance(save_every, numbers.Integral) or save_every < 1:
+    if (
+        isinstance(save_every, bool)
+        or not isinstance(save_every, numbers.Integral)
+        or save_every < 1
+    ):
         raise ValueError(f"simulate: `save_every` must be a positive integer, got {save_every!r}.")
     if n_steps % save_every:
         raise ValueError(
@@ -142,9 +146,7 @@ def _simulate(
         # Sample the controller at multiples of its period; otherwise keep the held value.
         if steps_per_sample == 0:
             return None
-        return lax.cond(
-            i % steps_per_sample == 0, lambda: closed_loop.control(t, y), lambda: held
-        )
+        return lax.cond(i % steps_per_sample == 0, lambda: closed_loop.control(t, y), lambda: held)
 
     y0 = closed_loop.init(time(0), x0)
     held0 = None if steps_per_sample == 0 else closed_loop.control(time(0), y0)
@@ -169,9 +171,7 @@ def _simulate(
         save_interval = jax.checkpoint(save_interval)
 
     n_saves = n_steps // save_every
-    _, (ys, signals) = lax.scan(
-        save_interval, (y0, held0, solver_state0), jnp.arange(n_saves)
-    )
+    _, (ys, signals) = lax.scan(save_interval, (y0, held0, solver_state0), jnp.arange(n_saves))
     signals0 = closed_loop.signals(time(0), y0, held0)
 
     def prepend(first, rest):

@@ -69,9 +69,7 @@ class RK4(AbstractFixedStepSolver):
         k2 = vector_field(t + half, _axpy(y, half, k1), args)
         k3 = vector_field(t + half, _axpy(y, half, k2), args)
         k4 = vector_field(t + dt, _axpy(y, dt, k3), args)
-        increment = jtu.tree_map(
-            lambda a, b, c, d: (a + 2 * b + 2 * c + d) / 6, k1, k2, k3, k4
-        )
+        increment = jtu.tree_map(lambda a, b, c, d: (a + 2 * b + 2 * c + d) / 6, k1, k2, k3, k4)
         return _axpy(y, dt, increment), None
 
 

@@ -67,10 +67,7 @@ class Trajectory(eqx.Module):
             if tree is None:
                 return None
             if isinstance(tree, eqx.Module):
-                return {
-                    name: convert(getattr(tree, name))
-                    for name in tree.__dataclass_fields__
-                }
+                return {name: convert(getattr(tree, name)) for name in tree.__dataclass_fields__}
             return np.asarray(tree)
 
         return {

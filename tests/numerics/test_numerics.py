@@ -1,0 +1,114 @@
+"""Safe primitives: values, derivatives at singular points, batching, dtypes."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxatt.numerics import (
+    abs_pow,
+    det3,
+    inv3,
+    rational_sign,
+    safe_arccos,
+    safe_norm,
+    safe_normalize,
+    sat,
+    sig_pow,
+    sign,
+    smooth_sign,
+    solve3,
+)
+
+
+def central_difference(f, x, h=1e-6):
+    return (f(x + h) - f(x - h)) / (2 * h)
+
+
+@pytest.mark.parametrize("x", [-2.3, -0.3, 0.3, 0.9, 1.0, 4.0])
+@pytest.mark.parametrize("a", [5 / 9, 0.7, 1.0, 31 / 11])
+def test_sig_pow_value_and_gradients_match_closed_form_and_fd(x, a):
+    assert np.isclose(sig_pow(x, a), np.sign(x) * abs(x) ** a, rtol=1e-14)
+    dx, da = jax.grad(sig_pow, argnums=(0, 1))(x, a)
+    assert np.isclose(dx, a * abs(x) ** (a - 1), rtol=1e-12)
+    assert np.isclose(da, np.sign(x) * abs(x) ** a * np.log(abs(x)), rtol=1e-12, atol=1e-15)
+    assert np.isclose(dx, central_difference(lambda v: sig_pow(v, a), x), rtol=1e-7)
+    assert np.isclose(da, central_difference(lambda b: sig_pow(x, b), a), rtol=1e-7, atol=1e-9)
+
+
+def test_sig_pow_grad_at_zero_is_finite():
+    eps = jnp.finfo(jnp.float64).eps
+    for a in (0.3, 5 / 9, 0.99):
+        dx, da = jax.grad(sig_pow, argnums=(0, 1))(0.0, a)
+        assert np.isfinite(dx) and np.isfinite(da)
+        # The documented slope cap: a * sqrt(eps)^(a - 1).
+        assert np.isclose(dx, a * np.sqrt(eps) ** (a - 1), rtol=1e-12)
+        assert da == 0.0
+    assert jax.grad(sig_pow)(0.0, 2.0) == 0.0  # exact for a >= 1
+    assert jax.grad(sig_pow)(0.0, 1.0) == 1.0
+    assert sig_pow(0.0, 0.5) == 0.0  # sign(0) = 0
+
+
+def test_sig_pow_second_derivative_finite_at_zero():
+    d2 = jax.grad(jax.grad(sig_pow))(0.0, 0.6)
+    assert np.isfinite(d2)
+
+
+def test_sig_pow_elementwise_broadcast_vmap_and_dtype():
+    x = jnp.array([-1.5, 0.0, 0.2])
+    a = jnp.array([0.5, 0.5, 2.0])
+    np.testing.assert_allclose(sig_pow(x, a), [-(1.5**0.5), 0.0, 0.04], rtol=1e-14)
+    np.testing.assert_allclose(jax.vmap(sig_pow)(x, a), sig_pow(x, a))
+    np.testing.assert_allclose(jax.jit(sig_pow)(x, a), sig_pow(x, a))
+    x32 = x.astype(jnp.float32)
+    assert sig_pow(x32, jnp.float32(0.5)).dtype == jnp.float32
+    assert jax.grad(lambda v: jnp.sum(sig_pow(v, jnp.float32(0.5))))(x32).dtype == jnp.float32
+
+
+def test_abs_pow_matches_and_has_odd_derivative():
+    for x in (-0.7, 0.4):
+        assert np.isclose(abs_pow(x, 1.5), abs(x) ** 1.5)
+        assert np.isclose(jax.grad(abs_pow)(x, 1.5), 1.5 * abs(x) ** 0.5 * np.sign(x))
+    assert np.isfinite(jax.grad(abs_pow)(0.0, 0.5))
+
+
+def test_safe_norm_zero_rows_have_zero_gradient_and_others_exact():
+    x = jnp.array([[0.0, 0.0, 0.0], [3.0, 4.0, 0.0]])
+    np.testing.assert_allclose(safe_norm(x), [0.0, 5.0])
+    g = jax.grad(lambda v: jnp.sum(safe_norm(v)))(x)
+    np.testing.assert_allclose(g, [[0, 0, 0], [0.6, 0.8, 0]])
+    np.testing.assert_allclose(safe_normalize(x), [[0, 0, 0], [0.6, 0.8, 0]])
+    assert np.all(np.isfinite(jax.jacobian(safe_normalize)(jnp.zeros(3))))
+    assert safe_norm(x, keepdims=True).shape == (2, 1)
+
+
+def test_switching_functions():
+    x = jnp.array([-2.0, -0.05, 0.0, 0.05, 2.0])
+    np.testing.assert_array_equal(sign(x), [-1, -1, 0, 1, 1])
+    np.testing.assert_allclose(sat(x, 0.1), [-1, -0.5, 0, 0.5, 1])
+    np.testing.assert_allclose(smooth_sign(x, 0.1), np.tanh(np.asarray(x) / 0.1))
+    np.testing.assert_allclose(rational_sign(x, 0.1), np.asarray(x) / (np.abs(x) + 0.1))
+    assert jax.grad(sign)(0.3) == 0.0  # documented: no gradient through sign
+    assert np.isclose(jax.grad(smooth_sign)(0.0, 0.1), 10.0)
+    assert np.isclose(jax.grad(sat)(0.0, 0.1), 10.0)
+
+
+def test_safe_arccos_gradient_finite_at_ends():
+    for x in (-1.0, 1.0):
+        assert np.isfinite(jax.grad(safe_arccos)(x))
+    assert np.isclose(jax.grad(safe_arccos)(0.3), -1 / np.sqrt(1 - 0.09))
+    assert np.isclose(safe_arccos(1.0 + 1e-12), 0.0)
+
+
+def test_closed_form_3x3_linear_algebra_matches_numpy():
+    rng = np.random.default_rng(1)
+    for _ in range(5):
+        m = rng.normal(size=(3, 3))
+        a = m @ m.T + 3 * np.eye(3)
+        b = rng.normal(size=3)
+        np.testing.assert_allclose(solve3(a, b), np.linalg.solve(a, b), rtol=1e-12)
+        np.testing.assert_allclose(inv3(a), np.linalg.inv(a), rtol=1e-12, atol=1e-15)
+        assert np.isclose(det3(a), np.linalg.det(a), rtol=1e-12)
+    g = jax.grad(lambda a: jnp.sum(solve3(a, jnp.ones(3))))(jnp.asarray(a))
+    g_ref = -np.outer(np.linalg.solve(a.T, np.ones(3)), np.linalg.solve(a, np.ones(3)))
+    np.testing.assert_allclose(g, g_ref, rtol=1e-10)
