@@ -3,3 +3,10 @@
 from ._base import AbstractController as AbstractController
 from ._open_loop import OpenLoop as OpenLoop
 from ._pd import MRPPD as MRPPD, QuaternionPD as QuaternionPD
+from ._robust import (
+    AbstractRobustTerm as AbstractRobustTerm,
+    AxisRobustTerm as AxisRobustTerm,
+    NormRobustTerm as NormRobustTerm,
+)
+from ._sliding_mode import SlidingModeTracking as SlidingModeTracking
+from ._tracking import TrackingErrors as TrackingErrors, tracking_errors as tracking_errors

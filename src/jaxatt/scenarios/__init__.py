@@ -3,9 +3,13 @@
 
 from types import ModuleType
 
-from . import rigid_body_pd as rigid_body_pd
+from . import (
+    chen2022_two_phase_power as chen2022_two_phase_power,
+    rigid_body_pd as rigid_body_pd,
+)
 
 
 REGISTRY: dict[str, ModuleType] = {
     "rigid_body_pd": rigid_body_pd,
+    "chen2022": chen2022_two_phase_power,
 }

@@ -59,7 +59,7 @@ class ClosedLoop(eqx.Module):
             ("actuator", actuator, (AbstractActuator, type(None))),
         ):
             if not isinstance(value, kind):
-                raise ValueError(f"ClosedLoop: `{name}` has the wrong type {type(value).__name__}.")
+                raise TypeError(f"ClosedLoop: `{name}` has the wrong type {type(value).__name__}.")
         if not issubclass(plant.state_type, controller.measurement_type):
             raise ValueError(
                 f"ClosedLoop: {type(controller).__name__} needs a plant whose state is a "

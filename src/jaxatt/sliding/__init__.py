@@ -1,0 +1,4 @@
+"""Sliding surfaces $s(e, e_\\omega)$ composed into sliding-mode controllers."""
+
+from ._base import AbstractSlidingSurface as AbstractSlidingSurface
+from ._linear import LinearSurface as LinearSurface
