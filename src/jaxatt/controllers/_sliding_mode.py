@@ -17,7 +17,7 @@ from ._tracking import tracking_errors
 
 
 class SlidingModeTracking(AbstractController):
-    r"""Quaternion tracking $u = J_0\big(r(s) - F - \dot h - \nu(s)\big)$, so $\dot s = r(s) - \nu + D$.
+    r"""Sliding-mode tracking $u = J_0(r(s) - F - \dot h - \nu(s))$: $\dot s = r(s) - \nu(s) + D$.
 
     With the surface $s = e_\omega + h(e)$, the reaching law $r$, the robust term $\nu$ and the
     error dynamics $\dot e_\omega = F + J_0^{-1}u + D$ (see `jaxatt.controllers._tracking`),

@@ -153,7 +153,8 @@ def steady_state_bounds() -> dict[str, float]:
     r"""Eqs. (52)-(56) with $\theta_1, \theta_2 \to 0$ (the tightest admissible bound).
 
     $\zeta = \min(\epsilon/\rho, (\epsilon/\eta)^{2/(q_2/p_2 + 1)})$,
-    $|e_i| \le \sqrt\zeta/\lambda$, $|e_{\omega,i}| \le 2\sqrt\zeta$. Any $\theta \in (0, 1)$ gives a larger bound.
+    $|e_i| \le \sqrt\zeta/\lambda$, $|e_{\omega,i}| \le 2\sqrt\zeta$. Any $\theta \in (0, 1)$
+    gives a larger bound.
     """
     zeta = min(EPS / RHO, (EPS / ETA) ** (2 / (ALPHA + 1)))
     return {
