@@ -37,7 +37,7 @@ def _run_scenario(name: str, out: pathlib.Path, short: bool) -> int:
         return 2
     start = time.perf_counter()
     print(f"[jaxatt] {name}: compiling and simulating (float64)...", flush=True)
-    metrics = REGISTRY[name].reproduce(out, short=short)
+    metrics = REGISTRY[name].reproduce(out, short=short, progress=True)
     elapsed = time.perf_counter() - start
     print(json.dumps(metrics, indent=2))
     print(f"[jaxatt] done in {elapsed:.1f} s; figures and metrics.json written to {out.resolve()}")

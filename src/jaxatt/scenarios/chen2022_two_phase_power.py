@@ -166,15 +166,21 @@ def steady_state_bounds() -> dict[str, float]:
 
 
 def run(
-    *, horizon: float = HORIZON, dt: float = DT, literal: bool = False
+    *, horizon: float = HORIZON, dt: float = DT, literal: bool = False, progress: bool = False
 ) -> dict[str, Trajectory]:
-    """Simulate M1, M2, M3 from D1 and D2; returns one batched trajectory per controller."""
+    """Simulate M1, M2, M3 from D1 and D2; returns one batched trajectory per controller.
+
+    `progress=True` shows a tqdm bar over the three controllers (one compilation each).
+    """
+    from tqdm import tqdm
+
     x0s = jax.tree_util.tree_map(
         lambda *xs: jnp.stack(xs), *[initial_state(case) for case in CASES]
     )
-    return {
-        name: simulate_cases(build(name, literal=literal), x0s, horizon, dt) for name in CONTROLLERS
-    }
+    trajs = {}
+    for name in tqdm(CONTROLLERS, desc="chen2022", disable=not progress):
+        trajs[name] = simulate_cases(build(name, literal=literal), x0s, horizon, dt)
+    return trajs
 
 
 def _to_json(value):
@@ -185,7 +191,9 @@ def _to_json(value):
     return [_to_json(v) for v in arr]
 
 
-def reproduce(out_dir: str | pathlib.Path, *, short: bool = False) -> dict:
+def reproduce(
+    out_dir: str | pathlib.Path, *, short: bool = False, progress: bool = False
+) -> dict:
     """Run the comparison and write Figs. 2-8 equivalents and `metrics.json` to `out_dir`.
 
     `metrics.json` holds `{"D1": {"M1": {...}, "M2": ..., "M3": ...}, "D2": {...}}` with, per
@@ -194,12 +202,13 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False) -> dict:
     `eomega_settle_time`, `peak_torque` (N m), `effort` ($\\int\\|u\\|^2dt$),
     `chattering` (total variation of $u$ over t in [10, 30] s), and the steady-state maxima of
     $|e_{v,i}|$ and $|e_{\\omega,i}|$ over t >= 20 s; plus `bounds` (eqs. 55-56) and the
-    simulation settings. `short=True` (CI) simulates 12 s with dt = 2e-3.
+    simulation settings. `short=True` (CI) simulates 12 s with dt = 2e-3; `progress=True`
+    shows a progress bar.
     """
     out = pathlib.Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     horizon, dt = (12.0, 2e-3) if short else (HORIZON, DT)
-    trajs = run(horizon=horizon, dt=dt)
+    trajs = run(horizon=horizon, dt=dt, progress=progress)
     metrics: dict = {
         "settings": {
             "horizon": horizon,

@@ -91,13 +91,16 @@ def _batch(loop: ClosedLoop, x0s: MRPState, dt: float):
     return jax.vmap(one)(x0s)
 
 
-def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, batch: int = 100) -> dict:
+def reproduce(
+    out_dir: str | pathlib.Path, *, short: bool = False, batch: int = 100, progress: bool = False
+) -> dict:
     """Simulate the nominal case and a batch of random attitudes; write figures and metrics.
 
     **Arguments:**
     - `out_dir`: folder for `overview.png`, `montecarlo.png` and `metrics.json`.
     - `short`: coarser step (1e-2 s instead of 1e-3 s) and a 16-sample batch, for CI.
     - `batch`: number of random initial attitudes.
+    - `progress`: show a progress bar over the two simulation stages.
 
     **Returns:** the metrics written to `metrics.json`.
     """
@@ -105,15 +108,20 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, batch: int = 
 
     from .. import plot
 
+    from tqdm import tqdm
+
     out = pathlib.Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     dt = 1e-2 if short else 1e-3
+    n = 16 if short else batch
+    bar = tqdm(total=2, desc="rigid_body_pd", disable=not progress)
     loop, x0 = build()
     traj = simulate(loop, x0, 0.0, HORIZON, dt=dt, save_every=round(0.02 / dt))
     nominal = {k: float(v) for k, v in trajectory_metrics(traj).items()}
-
-    n = 16 if short else batch
+    bar.update()
     trajs, batch_metrics = _batch(loop, random_initial_states(jr.key(0), n), dt)
+    bar.update()
+    bar.close()
     times = np.asarray(batch_metrics["settling_time"])
     ok = np.asarray(trajs.successful)
     summary = {
