@@ -366,3 +366,32 @@ def test_float32_runs_stay_float32():
     assert traj.plant_states.sigma.dtype == jnp.float32
     assert traj.signals["u"].dtype == jnp.float32
     assert traj.ts.dtype == jnp.float32
+
+
+class _FlagsLargeRates(AbstractController):
+    """A PD law that declares |omega_i| >= 0.05 inadmissible (a test-only probe)."""
+
+    inner: MRPPD
+    measurement_type: ClassVar[type] = MRPState
+
+    def init(self, t0, measurement, reference):
+        return None
+
+    def __call__(self, t, measurement, reference, state):
+        return self.inner(t, measurement, reference, state)
+
+    def diagnostics(self, t, measurement, reference, state):
+        return {"violation": jnp.any(jnp.abs(measurement.omega) >= 0.05)}
+
+
+def test_controller_violation_flag_sets_the_result():
+    plant = mrp_pd_loop().plant
+    fast = ClosedLoop(plant, _FlagsLargeRates(MRPPD(17.0, 15.0)))
+    traj = jaxatt.simulate(fast, mrp_x0(), 0.0, 2.0, dt=0.01, throw=False)
+    assert traj.result == jaxatt.RESULTS.constraint_violated
+    assert bool(jnp.any(traj.signals["violation"]))
+    with pytest.raises(Exception, match="admissible set"):
+        jaxatt.simulate(fast, mrp_x0(), 0.0, 2.0, dt=0.01)
+    slow = ClosedLoop(plant, _FlagsLargeRates(MRPPD(0.01, 15.0)))
+    traj = jaxatt.simulate(slow, mrp_x0(), 0.0, 2.0, dt=0.01, throw=False)
+    assert traj.result == jaxatt.RESULTS.successful

@@ -17,7 +17,10 @@ class AbstractController(eqx.Module):
       (zero-order-hold) control both are held over each controller period, i.e. internal
       states are advanced by forward Euler at the controller rate, as on a flight computer.
     - `diagnostics(t, measurement, reference, state) -> dict`: named signals recorded in the
-      trajectory (e.g. the sliding variable `"s"`); `{}` when there are none.
+      trajectory (e.g. the sliding variable `"s"`); `{}` when there are none. The reserved key
+      `"violation"` (a boolean scalar) marks states outside the law's admissible set, e.g. a
+      crossed barrier; `simulate` then reports `RESULTS.constraint_violated` (checked at the
+      saved times, so save every step when it matters).
 
     `measurement` is the plant state (full-state feedback) and `reference` an
     [`jaxatt.references.AttitudeReference`][]. `measurement_type` is the plant-state class the

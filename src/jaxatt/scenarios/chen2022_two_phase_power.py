@@ -191,9 +191,7 @@ def _to_json(value):
     return [_to_json(v) for v in arr]
 
 
-def reproduce(
-    out_dir: str | pathlib.Path, *, short: bool = False, progress: bool = False
-) -> dict:
+def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: bool = False) -> dict:
     """Run the comparison and write Figs. 2-8 equivalents and `metrics.json` to `out_dir`.
 
     `metrics.json` holds `{"D1": {"M1": {...}, "M2": ..., "M3": ...}, "D2": {...}}` with, per

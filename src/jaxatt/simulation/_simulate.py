@@ -181,6 +181,11 @@ def _simulate(
     signals = jtu.tree_map(prepend, signals0, signals)
     ts = time(jnp.arange(n_saves + 1) * save_every)
     result = RESULTS.where(all_finite(states), RESULTS.successful, RESULTS.nonfinite_state)
+    if "violation" in signals:
+        violated = jnp.any(signals["violation"])
+        result = RESULTS.where(
+            (result == RESULTS.successful) & violated, RESULTS.constraint_violated, result
+        )
     if throw:
         ts = result.error_if(ts, result != RESULTS.successful)
     return Trajectory(ts=ts, states=states, signals=signals, result=result)

@@ -17,6 +17,11 @@ class RESULTS(eqx.Enumeration):
         "The closed-loop state became NaN or infinite: the loop diverged or the step `dt` is too "
         "large for its fastest dynamics. Reduce `dt`, or check gains and initial conditions."
     )
+    constraint_violated = (
+        "The controller reported leaving its admissible set (its `diagnostics` signal "
+        "`violation` was True at a saved time), e.g. a barrier function was crossed. The "
+        "trajectory is returned, but the controller's guarantees do not hold on it."
+    )
 
 
 class Trajectory(eqx.Module):
@@ -28,8 +33,9 @@ class Trajectory(eqx.Module):
     - `states`: a [`ClosedLoopState`][] of stacked plant, reference and controller states.
     - `signals`: recorded signals by name (see [`ClosedLoop.signals`][]): at least `"u"`
       (applied control), `"u_cmd"`, `"attitude_error"`, `"rate_error"`, `"disturbance"`.
-    - `result`: a [`RESULTS`][] member; `RESULTS.successful` unless the state became
-      non-finite. With `simulate(..., throw=True)` (the default) a failure raises instead.
+    - `result`: a [`RESULTS`][] member: `RESULTS.successful`, `nonfinite_state`, or
+      `constraint_violated` (a controller's `diagnostics()["violation"]` was True at a saved
+      time). With `simulate(..., throw=True)` (the default) a failure raises instead.
     """
 
     ts: Float[Array, " T"]
