@@ -105,10 +105,9 @@ def reproduce(
     **Returns:** the metrics written to `metrics.json`.
     """
     import matplotlib.pyplot as plt
+    from tqdm import tqdm
 
     from .. import plot
-
-    from tqdm import tqdm
 
     out = pathlib.Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
