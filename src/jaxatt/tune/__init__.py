@@ -1,0 +1,45 @@
+"""Gradient-based gain tuning: parameter transforms, objectives, an optax loop with checkpoints.
+
+!!! example
+    ```python
+    from jaxatt import tune
+    params = {
+        "rho": tune.Parameter(lambda m: m.controller.reaching_law.rho, tune.Positive()),
+        "alpha": tune.Parameter(lambda m: m.controller.reaching_law.alpha, tune.Interval(0, 1)),
+    }
+    objective = tune.SettlingObjective(t1=10.0, dt=5e-3, tolerance=1e-3)
+    result = tune.tune(loop, params, objective, x0s, steps=30, checkpoint="run.eqx")
+    ```
+"""
+
+from ._checkpoint import (
+    TuneState as TuneState,
+    load_checkpoint as load_checkpoint,
+    save_checkpoint as save_checkpoint,
+)
+from ._loop import TuneResult as TuneResult, evaluate as evaluate, tune as tune
+from ._objective import (
+    AbstractAggregate as AbstractAggregate,
+    CVaR as CVaR,
+    Mean as Mean,
+    Penalty as Penalty,
+    Quantile as Quantile,
+    SettlingObjective as SettlingObjective,
+    WorstCase as WorstCase,
+    attitude_error_norm as attitude_error_norm,
+)
+from ._parameters import (
+    Parameter as Parameter,
+    apply as apply,
+    check_parameters as check_parameters,
+    constrained as constrained,
+    initial_unconstrained as initial_unconstrained,
+)
+from ._transforms import (
+    AbstractTransform as AbstractTransform,
+    GreaterThan as GreaterThan,
+    Identity as Identity,
+    Interval as Interval,
+    Positive as Positive,
+    nearest_odd_ratio as nearest_odd_ratio,
+)

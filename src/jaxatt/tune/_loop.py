@@ -1,0 +1,178 @@
+"""The optax tuning loop: one compiled step, a Python loop with progress, checkpoints, resume."""
+
+import dataclasses
+import os
+import pathlib
+from collections.abc import Callable, Mapping
+
+import equinox as eqx
+import jax.numpy as jnp
+import jax.tree_util as jtu
+import numpy as np
+import optax
+from jaxtyping import Array, PyTree
+
+from ._checkpoint import TuneState, load_checkpoint, save_checkpoint
+from ._parameters import apply, check_parameters, constrained, initial_unconstrained
+
+
+@dataclasses.dataclass(frozen=True)
+class TuneResult:
+    """Outcome of [`tune`][].
+
+    - `module`: the template with the tuned gains written in.
+    - `gains` / `initial_gains`: name -> value (NumPy).
+    - `losses`: the loss at each completed step, evaluated before that step's update.
+    - `steps`: number of completed steps (including those before a resume).
+    """
+
+    module: PyTree
+    gains: dict[str, np.ndarray]
+    initial_gains: dict[str, np.ndarray]
+    losses: np.ndarray
+    steps: int
+
+
+@eqx.filter_jit
+def _step(unconstrained, opt_state, template, parameters, objective, inputs, optimizer):
+    def loss_fn(u):
+        return objective(apply(template, parameters, u), inputs)
+
+    (loss, aux), grads = eqx.filter_value_and_grad(loss_fn, has_aux=True)(unconstrained)
+    updates, opt_state = optimizer.update(grads, opt_state, unconstrained)
+    return optax.apply_updates(unconstrained, updates), opt_state, loss, aux
+
+
+def _check_inputs(inputs) -> None:
+    leaves = jtu.tree_leaves(inputs)
+    if not leaves:
+        raise ValueError("tune: `inputs` (the training batch) is empty.")
+    sizes = {np.shape(leaf)[0] if np.ndim(leaf) else None for leaf in leaves}
+    if None in sizes or len(sizes) != 1:
+        raise ValueError(
+            "tune: every leaf of `inputs` must have the same leading (batch) axis, got sizes "
+            f"{sorted(s for s in sizes if s is not None)}."
+        )
+    (size,) = sizes
+    if size == 0:
+        raise ValueError("tune: `inputs` (the training batch) is empty: it has 0 samples.")
+
+
+def tune(
+    template: PyTree,
+    parameters: Mapping,
+    objective: Callable,
+    inputs: PyTree,
+    *,
+    steps: int,
+    optimizer: optax.GradientTransformation | None = None,
+    checkpoint: str | os.PathLike | None = None,
+    checkpoint_every: int = 1,
+    resume: bool = False,
+    progress: bool = True,
+    callback: Callable[[int, float, dict], None] | None = None,
+) -> TuneResult:
+    """Tune the `parameters` of `template` by gradient descent on `objective(module, inputs)`.
+
+    **Arguments:**
+    - `template`: the module holding the initial gains (e.g. a `ClosedLoop`).
+    - `parameters`: name -> [`Parameter`][] (`where` selector + transform).
+    - `objective`: `(module, inputs) -> (loss, aux)`, e.g. a [`SettlingObjective`][].
+    - `inputs`: the training batch (e.g. stacked initial states), fixed for the whole run.
+    - `steps`: total number of optimizer steps (a resumed run continues up to it).
+    - `optimizer`: an optax transformation; default `optax.adam(0.05)`.
+    - `checkpoint`: file for `eqx.tree_serialise_leaves` checkpoints, written every
+      `checkpoint_every` steps, at the end, and when interrupted (Ctrl-C).
+    - `resume`: continue from `checkpoint` if it exists. A resumed run ends bit-identical to
+      an uninterrupted one (same inputs, same optimizer; XLA:CPU is deterministic).
+    - `progress`: tqdm progress bar with the current loss.
+    - `callback`: called as `callback(step, loss, aux)` after every step.
+
+    **Returns:** a [`TuneResult`][].
+
+    The configuration is validated before anything is compiled: parameter selectors, initial
+    values inside their transforms' ranges, a non-empty batch, `steps > 0`.
+    """
+    from tqdm import tqdm
+
+    if isinstance(steps, bool) or not isinstance(steps, int) or steps <= 0:
+        raise ValueError(f"tune: `steps` must be a positive integer, got steps={steps!r}.")
+    if (
+        isinstance(checkpoint_every, bool)
+        or not isinstance(checkpoint_every, int)
+        or checkpoint_every <= 0
+    ):
+        raise ValueError(
+            f"tune: `checkpoint_every` must be a positive integer, got {checkpoint_every!r}."
+        )
+    if resume and checkpoint is None:
+        raise ValueError("tune: `resume=True` needs a `checkpoint` path.")
+    check_parameters(template, parameters)
+    _check_inputs(inputs)
+    if optimizer is None:
+        optimizer = optax.adam(0.05)
+
+    unconstrained = initial_unconstrained(template, parameters)
+    initial_gains = {k: np.asarray(v) for k, v in constrained(unconstrained, parameters).items()}
+    state = TuneState(
+        step=jnp.array(0),
+        unconstrained=unconstrained,
+        opt_state=optimizer.init(unconstrained),
+        losses=jnp.full(steps, jnp.nan),
+    )
+    if resume and checkpoint is not None and pathlib.Path(checkpoint).exists():
+        state = load_checkpoint(checkpoint, state)
+
+    def write(state):
+        if checkpoint is not None:
+            save_checkpoint(checkpoint, state)
+
+    start = int(state.step)
+    bar = tqdm(total=steps, initial=start, desc="tune", disable=not progress)
+    try:
+        for k in range(start, steps):
+            u, opt_state, loss, aux = _step(
+                state.unconstrained,
+                state.opt_state,
+                template,
+                parameters,
+                objective,
+                inputs,
+                optimizer,
+            )
+            state = TuneState(
+                step=jnp.array(k + 1),
+                unconstrained=u,
+                opt_state=opt_state,
+                losses=state.losses.at[k].set(loss),
+            )
+            bar.update()
+            bar.set_postfix(loss=f"{float(loss):.4g}")
+            if (k + 1) % checkpoint_every == 0:
+                write(state)
+            if callback is not None:
+                callback(k + 1, float(loss), aux)
+    except KeyboardInterrupt:
+        write(state)
+        raise
+    finally:
+        bar.close()
+    write(state)
+    gains = {k: np.asarray(v) for k, v in constrained(state.unconstrained, parameters).items()}
+    return TuneResult(
+        module=apply(template, parameters, state.unconstrained),
+        gains=gains,
+        initial_gains=initial_gains,
+        losses=np.asarray(state.losses[: int(state.step)]),
+        steps=int(state.step),
+    )
+
+
+def evaluate(module: PyTree, objective: Callable, inputs: PyTree) -> tuple[Array, dict[str, Array]]:
+    """`objective(module, inputs)` compiled once (for validation on a held-out batch)."""
+    return _evaluate(module, objective, inputs)
+
+
+@eqx.filter_jit
+def _evaluate(module, objective, inputs):
+    return objective(module, inputs)

@@ -1,0 +1,180 @@
+"""Tuning: transforms, configuration errors, gradient check, checkpoint/resume."""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+import pytest
+
+from jaxatt import tune
+from jaxatt.plants import QuaternionState
+from jaxatt.scenarios import chen2022_two_phase_power as chen
+
+
+@pytest.mark.parametrize(
+    "transform, values",
+    [
+        (tune.Positive(), [1e-3, 1.2, 30.0]),
+        (tune.GreaterThan(1.0), [1.001, 31 / 11, 9.0]),
+        (tune.Interval(0.0, 1.0), [1e-3, 5 / 9, 0.999]),
+        (tune.Identity(), [-3.0, 0.0, 2.0]),
+    ],
+)
+def test_transforms_round_trip_and_stay_in_range(transform, values):
+    values = jnp.asarray(values)
+    np.testing.assert_allclose(transform.forward(transform.inverse(values)), values, rtol=1e-12)
+    u = jnp.linspace(-30, 30, 101)
+    assert transform.contains(transform.forward(u)) or isinstance(transform, tune.Identity)
+
+
+def test_nearest_odd_ratio():
+    assert tune.nearest_odd_ratio(31 / 11) == (31, 11)
+    assert tune.nearest_odd_ratio(5 / 9) == (5, 9)
+    p, q = tune.nearest_odd_ratio(0.6129, max_denominator=31)
+    assert p % 2 == 1 and q % 2 == 1 and abs(p / q - 0.6129) < 2e-3
+    with pytest.raises(ValueError, match="`value` must be positive"):
+        tune.nearest_odd_ratio(-1.0)
+
+
+def _small_problem(n=3, horizon=2.0, dt=1e-2):
+    loop = chen.build("M1")
+    q = jnp.array([[0.9, 0.3, -0.2, -0.25], [0.95, -0.1, 0.2, 0.2], [0.8, 0.4, 0.4, -0.2]])[:n]
+    q = q / jnp.linalg.norm(q, axis=1, keepdims=True)
+    x0s = QuaternionState(q, jnp.zeros((n, 3)))
+    params = {
+        "rho": tune.Parameter(lambda m: m.controller.reaching_law.rho, tune.Positive()),
+        "lambda": tune.Parameter(lambda m: m.controller.surface.slope, tune.Positive()),
+        "alpha": tune.Parameter(lambda m: m.controller.reaching_law.alpha, tune.Interval(0, 1)),
+        "beta": tune.Parameter(lambda m: m.controller.reaching_law.beta, tune.GreaterThan(1.0)),
+    }
+    objective = tune.SettlingObjective(t1=horizon, dt=dt, tolerance=1e-2)
+    return loop, x0s, params, objective
+
+
+def test_tuning_gradient_matches_central_differences():
+    """d(objective)/d(unconstrained) by reverse mode against central differences of the same
+    objective (2 samples, 1.5 s, dt 1.5e-2). Both sides differentiate the same discrete map, so
+    they agree to rounding unless a perturbation of 1e-6 moves a solver stage across a switch
+    (|s| = 1, a saturation corner); 1e-4 relative leaves room for FD rounding (~1e-8)."""
+    loop, x0s, params, objective = _small_problem(n=2, horizon=1.5, dt=1.5e-2)
+
+    @eqx.filter_jit
+    def loss(u):
+        return objective(tune.apply(loop, params, u), x0s)[0]
+
+    u0 = tune.initial_unconstrained(loop, params)
+    grads = jax.grad(loss)(u0)
+    for name in params:
+        h = 1e-6
+        plus = dict(u0, **{name: u0[name] + h})
+        minus = dict(u0, **{name: u0[name] - h})
+        numeric = float(loss(plus) - loss(minus)) / (2 * h)
+        assert np.isfinite(float(grads[name]))
+        assert abs(float(grads[name]) - numeric) <= 1e-4 * abs(numeric) + 1e-8, (
+            name,
+            grads[name],
+            numeric,
+        )
+
+
+def test_interrupted_run_resumes_bit_identically(tmp_path):
+    from jaxatt.tune._loop import _step
+
+    loop, x0s, params, objective = _small_problem(n=2, horizon=1.0, dt=2e-2)
+    optimizer = optax.adam(0.1)
+    compiled_before = _step._cached._cache_size()
+    full = tune.tune(loop, params, objective, x0s, steps=4, optimizer=optimizer, progress=False)
+
+    path = tmp_path / "run.eqx"
+
+    def interrupt(step, loss, aux):
+        if step == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        tune.tune(
+            loop,
+            params,
+            objective,
+            x0s,
+            steps=4,
+            optimizer=optimizer,
+            checkpoint=path,
+            progress=False,
+            callback=interrupt,
+        )
+    assert path.exists()
+    resumed = tune.tune(
+        loop,
+        params,
+        objective,
+        x0s,
+        steps=4,
+        optimizer=optimizer,
+        checkpoint=path,
+        resume=True,
+        progress=False,
+    )
+    assert resumed.steps == 4
+    for name in params:
+        assert np.array_equal(resumed.gains[name], full.gains[name]), name  # bit-identical
+    assert np.array_equal(resumed.losses, full.losses)
+    assert full.losses[-1] < full.losses[0]  # the loop does descend
+    # One compilation served all three runs (every step of each, before and after resuming).
+    assert _step._cached._cache_size() - compiled_before == 1
+
+
+@pytest.mark.parametrize(
+    "change, needle",
+    [
+        (dict(parameters={}), "`parameters` must be a non-empty mapping"),
+        (dict(parameters={"rho": "rho"}), "must be a jaxatt.tune.Parameter"),
+        (
+            dict(parameters={"x": tune.Parameter(lambda m: m.controller.nope, tune.Positive())}),
+            "does not select a field",
+        ),
+        (
+            dict(
+                parameters={
+                    "a": tune.Parameter(
+                        lambda m: m.controller.reaching_law.beta, tune.Interval(0, 1)
+                    )
+                }
+            ),
+            "outside its transform's range",
+        ),
+        (dict(steps=0), "`steps` must be a positive integer"),
+        (dict(inputs=QuaternionState(jnp.zeros((0, 4)), jnp.zeros((0, 3)))), "0 samples"),
+        (dict(resume=True), "`resume=True` needs a `checkpoint`"),
+    ],
+)
+def test_bad_tuning_configuration_fails_before_compiling(change, needle):
+    from jaxatt.tune._loop import _step
+
+    loop, x0s, params, objective = _small_problem(n=2)
+    args = dict(parameters=params, inputs=x0s, steps=2, resume=False)
+    args.update(change)
+    before = _step._cached._cache_size()
+    with pytest.raises(ValueError) as info:
+        tune.tune(
+            loop,
+            args["parameters"],
+            objective,
+            args["inputs"],
+            steps=args["steps"],
+            resume=args["resume"],
+            progress=False,
+        )
+    assert needle in str(info.value)
+    assert _step._cached._cache_size() == before  # nothing was compiled
+
+
+def test_aggregates():
+    values = jnp.arange(1.0, 11.0)
+    assert float(tune.Mean()(values)) == 5.5
+    assert float(tune.WorstCase()(values)) == 10.0
+    assert float(tune.CVaR(0.8)(values)) == 9.5  # mean of the worst 20 %
+    assert np.isclose(float(tune.Quantile(0.5)(values)), 5.5)
+    with pytest.raises(ValueError, match="`alpha` must lie in"):
+        tune.CVaR(1.0)
