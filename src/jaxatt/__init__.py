@@ -14,6 +14,7 @@ import importlib.metadata
 from . import (
     controllers as controllers,
     metrics as metrics,
+    montecarlo as montecarlo,
     numerics as numerics,
     plants as plants,
     references as references,

@@ -4,6 +4,11 @@ Functions take `ax=None` and return the `Axes` (or a `Figure` for multi-panel vi
 call `plt.show()` and never touch global rcParams (use `with jaxatt.plot.style(): ...`).
 """
 
+from ._montecarlo import (
+    plot_envelope as plot_envelope,
+    plot_scatter_vs_initial_error as plot_scatter_vs_initial_error,
+    plot_settling_distribution as plot_settling_distribution,
+)
 from ._trajectory import (
     plot_attitude_error as plot_attitude_error,
     plot_control as plot_control,
@@ -12,3 +17,4 @@ from ._trajectory import (
     plot_signal as plot_signal,
     style as style,
 )
+from ._tuning import plot_loss_curve as plot_loss_curve

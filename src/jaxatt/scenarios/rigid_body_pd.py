@@ -22,6 +22,7 @@ import numpy as np
 
 from ..controllers import MRPPD
 from ..metrics import control_effort, overshoot, peak, settling_time
+from ..montecarlo import rates_in_box, uniform_attitudes
 from ..numerics import safe_norm
 from ..plants import MRPState, RigidBodyMRP
 from ..rotations import mrp_from_quat
@@ -64,22 +65,14 @@ def trajectory_metrics(traj: Trajectory) -> dict[str, jax.Array]:
 
 
 def random_initial_states(key, n: int, max_rate: float = 0.05) -> MRPState:
-    """`n` uniformly random attitudes (Shoemake's method) with rates uniform in a box [rad/s]."""
+    """`n` Haar-uniform attitudes with rates uniform in the box [-max_rate, max_rate]^3 [rad/s].
+
+    Drawn with [`jaxatt.montecarlo.uniform_attitudes`][] (canonical, so ||sigma|| <= 1)
+    and [`jaxatt.montecarlo.rates_in_box`][] from the two halves of `jr.split(key)`.
+    """
     k_q, k_w = jr.split(key)
-    u1, u2, u3 = jr.uniform(k_q, (3, n))
-    q = jnp.stack(
-        [
-            jnp.sqrt(u1) * jnp.cos(2 * jnp.pi * u3),
-            jnp.sqrt(1 - u1) * jnp.sin(2 * jnp.pi * u2),
-            jnp.sqrt(1 - u1) * jnp.cos(2 * jnp.pi * u2),
-            jnp.sqrt(u1) * jnp.sin(2 * jnp.pi * u3),
-        ],
-        axis=-1,
-    )
-    q = jnp.where(q[:, :1] < 0, -q, q)  # short rotation: |sigma| <= 1
-    return MRPState(
-        jax.vmap(mrp_from_quat)(q), jr.uniform(k_w, (n, 3), minval=-max_rate, maxval=max_rate)
-    )
+    q = uniform_attitudes(k_q, n)
+    return MRPState(jax.vmap(mrp_from_quat)(q), rates_in_box(k_w, n, max_rate))
 
 
 @eqx.filter_jit

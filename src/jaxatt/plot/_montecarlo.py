@@ -1,0 +1,207 @@
+"""Monte Carlo figures: envelopes of a batch of time series, distributions of a metric, and a
+metric against the initial error."""
+
+import warnings
+from collections.abc import Mapping, Sequence
+
+import matplotlib.transforms as mtransforms
+import numpy as np
+from jaxtyping import ArrayLike
+from matplotlib.axes import Axes
+
+from ._trajectory import _new_axes
+
+
+def _host(values: ArrayLike) -> np.ndarray:
+    from ..montecarlo._summary import to_host
+
+    return to_host(values).astype(float)
+
+
+def _quantiles(values: np.ndarray, q: Sequence[float]) -> np.ndarray:
+    finite = np.where(np.isfinite(values), values, np.nan)
+    with warnings.catch_warnings():
+        # Times at which every sample is non-finite give NaN (nothing drawn), not a warning.
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return np.nanquantile(finite, q, axis=0)
+
+
+def plot_envelope(
+    ts: ArrayLike,
+    values: ArrayLike,
+    *,
+    ax: Axes | None = None,
+    quantiles: tuple[float, float] = (0.05, 0.95),
+    label: str | None = None,
+    log: bool = False,
+) -> Axes:
+    """Median and a quantile band of a batch of time series.
+
+    At each time the median and the two `quantiles` are taken over the samples whose value is
+    finite (failed samples drop out where they are NaN/inf); the band is filled in the median
+    line's color.
+
+    **Arguments:**
+    - `ts`: times [s], shape `(T,)` (or the batched `traj.ts` of shape `(n, T)`, whose first
+      row is used).
+    - `values`: shape `(n, T)`, e.g. `safe_norm(trajs.signals["attitude_error"][..., 1:])`.
+    - `ax`: axes to draw on; a new figure when `None`.
+    - `quantiles`: lower and upper probabilities of the band, in [0, 1].
+    - `label`: legend entry of the median line (the band is labelled with the quantiles).
+    - `log`: logarithmic y axis.
+
+    **Returns:** the axes.
+    """
+    ts = _host(ts)
+    if ts.ndim == 2:
+        ts = ts[0]
+    values = _host(values)
+    if values.ndim != 2 or ts.ndim != 1 or values.shape[1] != ts.shape[0]:
+        raise ValueError(
+            f"plot_envelope: `values` must have shape (n, T) with T = len(ts) = {ts.shape[-1]}, "
+            f"got shape {values.shape}."
+        )
+    low, high = (float(q) for q in quantiles)
+    if not 0.0 <= low <= high <= 1.0:
+        raise ValueError(
+            f"plot_envelope: `quantiles` must be (low, high) with 0 <= low <= high <= 1, got "
+            f"{quantiles}."
+        )
+    q_low, median, q_high = _quantiles(values, [low, 0.5, high])
+    ax = _new_axes(ax)
+    (line,) = ax.plot(ts, median, lw=1.5, label=label if label is not None else "median")
+    band = f"{100 * low:g}-{100 * high:g} %"
+    ax.fill_between(
+        ts,
+        q_low,
+        q_high,
+        color=line.get_color(),
+        alpha=0.25,
+        lw=0,
+        label=f"{label} {band}" if label is not None else band,
+    )
+    if log:
+        ax.set_yscale("log")
+    ax.set_xlabel("t [s]")
+    ax.legend(loc="best", fontsize=8)
+    return ax
+
+
+def _legend_label(name: str, values: np.ndarray, missing: str) -> str:
+    bad = int(np.sum(~np.isfinite(values)))
+    return f"{name} ({bad} {missing})" if bad else name
+
+
+def plot_settling_distribution(
+    results: Mapping[str, ArrayLike],
+    *,
+    kind: str = "cdf",
+    ax: Axes | None = None,
+    xlabel: str = "settling time [s]",
+) -> Axes:
+    """Empirical CDF (or histogram) of a metric per batch, e.g. settling time per controller.
+
+    With `kind="cdf"` the curve of each batch rises by $1/n$ at every finite value, so it ends
+    at the fraction of samples with a finite value; samples that never settled (`inf`) or
+    failed (`nan`) are not drawn and are counted in the legend ("3 not settled"). With
+    `kind="hist"` the finite values are binned on common edges (step histograms).
+
+    **Arguments:**
+    - `results`: label -> values of shape `(n,)` (e.g.
+      `{"M1": result.metrics["settling_time"], ...}`).
+    - `kind`: `"cdf"` or `"hist"`.
+    - `ax`: axes to draw on; a new figure when `None`.
+    - `xlabel`: the x-axis label.
+
+    **Returns:** the axes.
+    """
+    if kind not in ("cdf", "hist"):
+        raise ValueError(
+            f"plot_settling_distribution: `kind` must be 'cdf' or 'hist', got {kind!r}."
+        )
+    data = {str(name): _host(values).reshape(-1) for name, values in results.items()}
+    if not data:
+        raise ValueError("plot_settling_distribution: `results` must not be empty.")
+    ax = _new_axes(ax)
+    finite_all = np.concatenate([v[np.isfinite(v)] for v in data.values()])
+    edges = np.histogram_bin_edges(finite_all, bins=30) if finite_all.size else None
+    for name, values in data.items():
+        label = _legend_label(name, values, "not settled")
+        finite = np.sort(values[np.isfinite(values)])
+        if finite.size == 0:
+            ax.plot([], [], label=label)
+        elif kind == "cdf":
+            fraction = np.arange(1, finite.size + 1) / values.size
+            ax.step(
+                np.concatenate([finite[:1], finite]),
+                np.concatenate([[0.0], fraction]),
+                where="post",
+                label=label,
+                lw=1.4,
+            )
+        else:
+            ax.hist(finite, bins=edges, histtype="step", lw=1.4, label=label)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("fraction of samples" if kind == "cdf" else "samples")
+    if kind == "cdf":
+        ax.set_ylim(0.0, 1.02)
+    ax.legend(loc="best", fontsize=8)
+    return ax
+
+
+def plot_scatter_vs_initial_error(
+    initial_angle: ArrayLike,
+    values: ArrayLike,
+    *,
+    ax: Axes | None = None,
+    label: str | None = None,
+    ylabel: str = "settling time [s]",
+) -> Axes:
+    """Scatter of a per-sample metric against the initial attitude-error angle.
+
+    Samples with a non-finite value (not settled, failed) are drawn as crosses along the top
+    edge of the axes and counted in the legend.
+
+    **Arguments:**
+    - `initial_angle`: initial error angle [rad], shape `(n,)` (plotted in degrees), e.g.
+      `jax.vmap(jaxatt.rotations.quat_angle)(x0s.q)` for a reference starting at the
+      identity.
+    - `values`: the metric, shape `(n,)`.
+    - `ax`: axes to draw on; a new figure when `None`.
+    - `label`: legend entry.
+    - `ylabel`: the y-axis label.
+
+    **Returns:** the axes.
+    """
+    angle = np.degrees(_host(initial_angle).reshape(-1))
+    values = _host(values).reshape(-1)
+    if angle.shape != values.shape:
+        raise ValueError(
+            "plot_scatter_vs_initial_error: `initial_angle` and `values` must have the same "
+            f"length, got {angle.shape[0]} and {values.shape[0]}."
+        )
+    ax = _new_axes(ax)
+    finite = np.isfinite(values)
+    name = label if label is not None else "samples"
+    points = ax.scatter(
+        angle[finite],
+        values[finite],
+        s=10,
+        alpha=0.7,
+        label=_legend_label(name, values, "not settled"),
+    )
+    if not finite.all():
+        top = mtransforms.blended_transform_factory(ax.transData, ax.transAxes)
+        ax.scatter(
+            angle[~finite],
+            np.full(int((~finite).sum()), 0.97),
+            marker="x",
+            s=18,
+            color=points.get_facecolor()[0] if len(points.get_facecolor()) else None,
+            transform=top,
+            clip_on=False,
+        )
+    ax.set_xlabel("initial error angle [deg]")
+    ax.set_ylabel(ylabel)
+    ax.legend(loc="best", fontsize=8)
+    return ax

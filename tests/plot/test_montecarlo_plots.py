@@ -1,0 +1,83 @@
+"""Monte Carlo figures: they return Axes, draw something, and cope with inf/NaN samples."""
+
+import matplotlib
+
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+from matplotlib.axes import Axes  # noqa: E402
+
+from jaxatt import plot  # noqa: E402
+
+
+@pytest.fixture(autouse=True)
+def close_figures():
+    yield
+    plt.close("all")
+
+
+def _legend_texts(ax):
+    return [t.get_text() for t in ax.get_legend().get_texts()]
+
+
+def test_plot_envelope_draws_median_and_band_and_skips_nonfinite():
+    ts = np.linspace(0.0, 1.0, 11)
+    values = np.exp(-np.outer(np.linspace(1.0, 3.0, 20), ts))
+    values[3] = np.nan  # a failed sample
+    values[4, 5:] = np.inf
+    ax = plot.plot_envelope(ts, values, label="M1", log=True)
+    assert isinstance(ax, Axes)
+    (line,) = ax.get_lines()
+    expected = np.median(np.delete(values, [3, 4], axis=0), axis=0)
+    # At t > 0.4 the inf sample drops out; before it the median includes it.
+    np.testing.assert_allclose(line.get_ydata()[6:], expected[6:], rtol=1e-12)
+    assert len(ax.collections) == 1  # the quantile band
+    assert ax.get_yscale() == "log"
+    assert "M1" in _legend_texts(ax)
+
+
+def test_plot_envelope_accepts_batched_times_and_rejects_bad_shapes():
+    ts = np.tile(np.linspace(0.0, 1.0, 5), (3, 1))
+    fig, ax = plt.subplots()
+    assert plot.plot_envelope(ts, np.ones((3, 5)), ax=ax) is ax
+    with pytest.raises(ValueError, match="values"):
+        plot.plot_envelope(ts[0], np.ones((3, 4)))
+    with pytest.raises(ValueError, match="quantiles"):
+        plot.plot_envelope(ts[0], np.ones((3, 5)), quantiles=(0.9, 0.1))
+
+
+@pytest.mark.parametrize("kind", ["cdf", "hist"])
+def test_plot_settling_distribution_counts_unsettled_in_the_legend(kind):
+    results = {
+        "M1": np.array([1.0, 2.0, np.inf, 3.0]),
+        "M2": np.array([2.0, 2.5, 3.5, 4.0]),
+        "M3": np.full(4, np.inf),
+    }
+    ax = plot.plot_settling_distribution(results, kind=kind)
+    assert isinstance(ax, Axes)
+    assert _legend_texts(ax) == ["M1 (1 not settled)", "M2", "M3 (4 not settled)"]
+    if kind == "cdf":
+        line = ax.get_lines()[0]
+        # The CDF of M1 ends at 3/4: one of its four samples never settled.
+        assert line.get_ydata()[-1] == pytest.approx(0.75)
+        np.testing.assert_allclose(ax.get_lines()[1].get_ydata()[-1], 1.0)
+    else:
+        assert len(ax.patches) >= 2
+    with pytest.raises(ValueError, match="kind"):
+        plot.plot_settling_distribution(results, kind="box")
+
+
+def test_plot_scatter_vs_initial_error_marks_unsettled_samples():
+    angle = np.radians([10.0, 20.0, 30.0, 40.0])
+    values = np.array([1.0, 2.0, np.inf, np.nan])
+    ax = plot.plot_scatter_vs_initial_error(angle, values, label="M1")
+    assert isinstance(ax, Axes)
+    finite, crosses = ax.collections
+    np.testing.assert_allclose(finite.get_offsets()[:, 0], [10.0, 20.0])
+    assert len(crosses.get_offsets()) == 2
+    assert _legend_texts(ax) == ["M1 (2 not settled)"]
+    with pytest.raises(ValueError, match="same length"):
+        plot.plot_scatter_vs_initial_error(angle, values[:3])
