@@ -1,6 +1,16 @@
 """Control laws. Paper variants are instances of these classes, never copies."""
 
 from ._base import AbstractController as AbstractController
+from ._finite_time import (
+    FiniteTimeMRP as FiniteTimeMRP,
+    RateBarrierState as RateBarrierState,
+    RateConstrainedFiniteTimeMRP as RateConstrainedFiniteTimeMRP,
+    homogeneous_exponent as homogeneous_exponent,
+)
+from ._observer_compensated import (
+    ObserverCompensated as ObserverCompensated,
+    ObserverCompensatedState as ObserverCompensatedState,
+)
 from ._open_loop import OpenLoop as OpenLoop
 from ._pd import MRPPD as MRPPD, QuaternionPD as QuaternionPD
 from ._robust import (
