@@ -12,18 +12,47 @@ def test_list_names_the_scenarios(capsys):
     assert "rigid_body_pd" in capsys.readouterr().out
 
 
-def test_demo_writes_figures_and_metrics(tmp_path, capsys):
+def test_demo_runs_the_whole_workflow_and_reports_measured_numbers(tmp_path, capsys):
     assert cli.main(["demo", "--short", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert str(tmp_path.resolve()) in out
+    assert str((tmp_path / "report.md").resolve()) in out
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    report = (tmp_path / "report.md").read_text()
+    # The reproduction, the Monte Carlo and the tuning all ran and their numbers are reported.
+    assert set(summary["chen2022"]) == {"D1", "D2"}
+    for name in ("M1", "M2", "M3"):
+        assert summary["monte_carlo"][name]["count"] == 32
+        assert summary["monte_carlo"][name]["failed"] == 0
+    tuned = summary["tuning"]
+    before = tuned["held_out_before"]["mean_settling_time"]
+    after = tuned["held_out_after"]["mean_settling_time"]
+    assert f"{before:.3g}" in report and f"{after:.3g}" in report
+    assert tuned["gains_after"] != tuned["gains_before"]
+    for name in ("montecarlo_cdf.png", "chen2022/fig5_sliding_variable_D1.png",
+                 "tuning/loss.png", "tuning/settling_cdf.png", "tuning/report.md"):
+        assert (tmp_path / name).stat().st_size > 1000, name
+
+
+def test_scenario_rigid_body_pd_reproduces(tmp_path, capsys):
+    assert cli.main(["reproduce", "rigid_body_pd", "--short", "--out", str(tmp_path)]) == 0
     metrics = json.loads((tmp_path / "metrics.json").read_text())
     assert (tmp_path / "overview.png").stat().st_size > 10_000
-    assert (tmp_path / "montecarlo.png").stat().st_size > 10_000
     nominal = metrics["nominal"]
     # The PD loop settles (to |sigma_e| < 1e-2) well inside the 40 s horizon, within the limit.
     assert 0 < nominal["settling_time"] < 30
     assert nominal["peak_torque"] <= 30.0
     assert metrics["monte_carlo"]["failed_samples"] == 0
+
+
+def test_tune_command_writes_a_report_and_resumes(tmp_path, capsys):
+    args = ["tune", "chen2022", "--samples", "4", "--steps", "2", "--out", str(tmp_path)]
+    assert cli.main(args) == 0
+    first = json.loads((tmp_path / "tuning.json").read_text())
+    assert len(first["losses"]) == 2 and (tmp_path / "checkpoint.eqx").exists()
+    # Resuming a finished run does no further steps and reports the same gains.
+    assert cli.main(args + ["--resume"]) == 0
+    again = json.loads((tmp_path / "tuning.json").read_text())
+    assert again["gains_after"] == first["gains_after"]
 
 
 def test_reproduce_chen2022_short_writes_figures_and_metrics(tmp_path, capsys):
@@ -44,6 +73,8 @@ def test_reproduce_chen2022_short_writes_figures_and_metrics(tmp_path, capsys):
 def test_unknown_scenario_is_an_error(capsys):
     assert cli.main(["reproduce", "nope"]) == 2
     assert "unknown scenario" in capsys.readouterr().err
+    assert cli.main(["tune", "nope"]) == 2
+    assert "no tuning problem" in capsys.readouterr().err
 
 
 def test_bad_command_line_exits_with_usage():
