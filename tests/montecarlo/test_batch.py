@@ -85,6 +85,30 @@ def test_monte_carlo_equals_a_python_loop_of_simulate(chen_batch):
         )
 
 
+def test_scalarized_batch_equals_the_plain_batch(chen_batch):
+    # scalarize=True (the default for large batches) changes the layout, not the numbers:
+    # batched loop fields, the failing sample and the metrics must all come out the same.
+    loop, x0s, inertias, disturbances, plain = chen_batch
+    batched, axes = mc.batch_field(loop, lambda m: m.plant.body.inertia, inertias)
+    batched, axes = mc.batch_field(batched, lambda m: m.plant.body.disturbance, disturbances, axes)
+    fast = mc.monte_carlo(
+        batched, x0s, 0.0, HORIZON, dt=DT, loop_axes=axes, save_every=SAVE_EVERY, scalarize=True
+    )
+    np.testing.assert_array_equal(fast.result._value, plain.result._value)
+    ok = np.asarray(plain.successful)
+    for name, value in plain.metrics.items():
+        np.testing.assert_allclose(
+            np.asarray(fast.metrics[name])[ok], np.asarray(value)[ok], rtol=1e-9, err_msg=name
+        )
+
+
+def test_default_scalarization_rule():
+    assert mc.SCALARIZE_FROM == 1000
+    assert not mc.default_scalarize(999) and mc.default_scalarize(1000)
+    assert not mc.default_scalarize(4000, batch_size=500)  # lax.map runs 500 at a time
+    assert not mc.default_scalarize(1500, devices=2) and mc.default_scalarize(2000, devices=2)
+
+
 def test_batched_fields_really_differ_between_samples(chen_batch):
     # Guard for the test above: with one shared inertia the loop comparison would be vacuous.
     _, _, inertias, _, result = chen_batch

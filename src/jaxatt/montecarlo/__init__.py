@@ -9,8 +9,10 @@
 """
 
 from ._batch import (
+    SCALARIZE_FROM as SCALARIZE_FROM,
     batch_field as batch_field,
     default_metrics as default_metrics,
+    default_scalarize as default_scalarize,
     monte_carlo as monte_carlo,
 )
 from ._samplers import (

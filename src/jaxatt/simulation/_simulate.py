@@ -13,6 +13,7 @@ from jaxtyping import Array, PyTree
 
 from ._closed_loop import ClosedLoop, ClosedLoopState
 from ._sampling import AbstractSampling, Continuous
+from ._scalarize import scalarized_loop_step
 from ._solvers import RK4, AbstractFixedStepSolver, as_fixed_step_solver
 from ._trajectory import RESULTS, Trajectory, all_finite
 
@@ -67,6 +68,7 @@ def simulate(
     save_every: int = 1,
     checkpoint: bool = True,
     throw: bool = True,
+    scalarize: bool = False,
 ) -> Trajectory:
     r"""Integrate `closed_loop` from the plant state `x0` over `[t0, t1]` with fixed steps `dt`.
 
@@ -86,6 +88,13 @@ def simulate(
       memory grows with the number of saves rather than of steps. No effect without `grad`.
     - `throw`: raise if the state becomes non-finite. Use `throw=False` under `vmap`
       (Monte Carlo): failures are then reported per sample in `Trajectory.result`.
+    - `scalarize`: run the time loop on the scalar entries of the state and of every small
+      array inside a step (see `jaxatt.simulation._scalarize`), so that under `vmap` a batch
+      lowers to elementwise code on one `(batch,)` array per component. Same values (to a few
+      ulps) and derivatives. On a 2-core CPU it made batches of 1000 and more 1.5-3x faster
+      (benchmarks/README.md), but it roughly doubles compile time and makes reverse-mode
+      gradients slower, and it does not help one trajectory: [`jaxatt.montecarlo.monte_carlo`][]
+      turns it on, `simulate` leaves it off by default.
 
     **Returns:** a [`Trajectory`][].
 
@@ -120,6 +129,7 @@ def simulate(
         solver=as_fixed_step_solver(solver),
         checkpoint=bool(checkpoint),
         throw=bool(throw),
+        scalarize=bool(scalarize),
     )
 
 
@@ -136,42 +146,56 @@ def _simulate(
     solver: AbstractFixedStepSolver,
     checkpoint: bool,
     throw: bool,
+    scalarize: bool,
 ) -> Trajectory:
     dtype = jnp.result_type(*jtu.tree_leaves(x0))
 
     def time(i) -> Array:
         return jnp.asarray(t0 + jnp.asarray(i) * dt, dtype=dtype)
 
-    def hold(i, t, y, held):
+    def hold(loop, i, t, y, held):
         # Sample the controller at multiples of its period; otherwise keep the held value.
         if steps_per_sample == 0:
             return None
-        return lax.cond(i % steps_per_sample == 0, lambda: closed_loop.control(t, y), lambda: held)
+        return lax.cond(i % steps_per_sample == 0, lambda: loop.control(t, y), lambda: held)
 
     y0 = closed_loop.init(time(0), x0)
     held0 = None if steps_per_sample == 0 else closed_loop.control(time(0), y0)
     solver_state0 = solver.init(closed_loop, time(0), dt, y0, held0)
 
-    def one_step(carry, i):
+    def one_step(loop, carry, i):
         y, held, solver_state = carry
         t = time(i)
-        held = hold(i, t, y, held)
-        y, solver_state = solver.step(closed_loop, t, dt, y, held, solver_state)
-        return (closed_loop.post_step(y), held, solver_state), None
+        held = hold(loop, i, t, y, held)
+        y, solver_state = solver.step(loop, t, dt, y, held, solver_state)
+        return loop.post_step(y), held, solver_state
 
-    def save_interval(carry, j):
-        carry, _ = lax.scan(one_step, carry, j * save_every + jnp.arange(save_every))
-        y, held, _ = carry
+    carry0 = (y0, held0, solver_state0)
+    if scalarize:
+        # The time loop runs on scalar entries (a struct of arrays under vmap): `._scalarize`.
+        flat0, step, unflatten = scalarized_loop_step(one_step, closed_loop, carry0)
+    else:
+        flat0 = carry0
+
+        def step(carry, i):
+            return one_step(closed_loop, carry, i), None
+
+        def unflatten(carry):
+            return carry
+
+    def save_interval(flat, j):
+        flat, _ = lax.scan(step, flat, j * save_every + jnp.arange(save_every))
+        y, held, _ = unflatten(flat)
         i_end = (j + 1) * save_every
         t_end = time(i_end)
-        signals = closed_loop.signals(t_end, y, hold(i_end, t_end, y, held))
-        return carry, (y, signals)
+        signals = closed_loop.signals(t_end, y, hold(closed_loop, i_end, t_end, y, held))
+        return flat, (y, signals)
 
     if checkpoint:
         save_interval = jax.checkpoint(save_interval)
 
     n_saves = n_steps // save_every
-    _, (ys, signals) = lax.scan(save_interval, (y0, held0, solver_state0), jnp.arange(n_saves))
+    _, (ys, signals) = lax.scan(save_interval, flat0, jnp.arange(n_saves))
     signals0 = closed_loop.signals(time(0), y0, held0)
 
     def prepend(first, rest):

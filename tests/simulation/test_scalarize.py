@@ -1,0 +1,194 @@
+"""The scalarizer evaluates programs entry by entry with unchanged values and derivatives."""
+
+import re
+
+import diffrax as dfx
+import equinox as eqx
+import jax
+import jax.lax as lax
+import jax.numpy as jnp
+import jax.random as jr
+import jax.tree_util as jtu
+import numpy as np
+import pytest
+
+from jaxatt.numerics import sig_pow, solve3
+from jaxatt.plants import MRPState
+from jaxatt.rotations import mrp_kinematics, mrp_to_dcm, quat_from_axis_angle, quat_multiply
+from jaxatt.scenarios import chen2022_two_phase_power as chen
+from jaxatt.simulation import Euler, ZeroOrderHold, simulate
+from jaxatt.simulation._scalarize import MAX_SIZE, pack, scalarize, split, split_tree
+
+
+def _is_object_array(x):
+    return isinstance(x, np.ndarray) and x.dtype == object
+
+
+def run_scalarized(f, *args):
+    out = scalarize(f)(*split_tree(args))
+    return jtu.tree_map(lambda o, r: pack(o, r.dtype), out, f(*args), is_leaf=_is_object_array)
+
+
+def assert_trees_close(a, b, rtol=1e-14, atol=1e-15):
+    for x, y in zip(jtu.tree_leaves(a), jtu.tree_leaves(b)):
+        np.testing.assert_allclose(np.asarray(x), np.asarray(y), rtol=rtol, atol=atol)
+
+
+Q = quat_from_axis_angle(jnp.array([0.3, -0.5, 0.8]), 1.1)
+P = quat_from_axis_angle(jnp.array([-0.2, 0.1, 0.4]), 2.5)
+SIGMA = jnp.array([0.1, 0.2, -0.3])
+OMEGA = jnp.array([0.4, -0.1, 0.2])
+J = jnp.array([[20.0, 1.2, 0.9], [1.2, 17.0, 1.4], [0.9, 1.4, 15.0]])
+
+
+@pytest.mark.parametrize(
+    "f, args",
+    [
+        (quat_multiply, (P, Q)),
+        (mrp_kinematics, (SIGMA, OMEGA)),
+        (mrp_to_dcm, (SIGMA,)),
+        (solve3, (J, OMEGA)),
+        (lambda a, b: jnp.einsum("ij,jk->ik", a, b), (J, J.T)),  # dot_general
+        (lambda a: jnp.einsum("bij,bj->bi", a, a[:, 0]), (jnp.stack([J, 2 * J]),)),  # batch dims
+        (lambda a: (jnp.sum(a, axis=0), jnp.max(a), jnp.prod(a, axis=1)), (J,)),
+        (lambda a: jnp.where(a > 1.3, jnp.sin(a), jnp.clip(a, 0.0, 1.0) ** 3), (J / 10,)),
+        (lambda a: jnp.concatenate([a[::-1], a[1:3]]).reshape(2, 3).T, (Q,)),
+        (lambda a: lax.dynamic_slice(a, (1,), (2,)), (Q,)),
+        (lambda a, i: lax.dynamic_slice(a, (i,), (2,)), (Q, jnp.array(2))),
+        (lambda a: lax.cond(a[0] > 0, lambda x: 2 * x, lambda x: x - 1, a), (Q,)),
+        (lambda a: lax.optimization_barrier((a, 2 * a)), (SIGMA,)),
+        (lambda a: sig_pow(a, 0.5), (jnp.array([0.3, 0.0, -0.7]),)),
+    ],
+    ids=lambda x: getattr(x, "__name__", None) if callable(x) else "",
+)
+def test_scalarized_values_equal_the_original(f, args):
+    assert_trees_close(run_scalarized(f, *args), f(*args))
+
+
+def test_the_closed_loop_vector_field_is_unchanged():
+    loop = chen.build("M1")
+    y = loop.init(0.0, chen.initial_state("D1"))
+    assert_trees_close(run_scalarized(lambda y: loop(0.37, y, None), y), loop(0.37, y, None))
+
+
+def test_custom_derivative_rules_survive():
+    # sig_pow's capped slope at 0 (a NaN for the naive |x|^a sign x) must come through.
+    x = jnp.array([0.3, 0.0, -0.7])
+
+    def direct(x):
+        return jnp.sum(sig_pow(x, 0.5) * jnp.array([1.0, 2.0, 3.0]))
+
+    def via_scalarizer(x):
+        out = scalarize(lambda z: jnp.sum(sig_pow(z, 0.5) * jnp.array([1.0, 2.0, 3.0])))(split(x))
+        return pack(out, x.dtype)
+
+    expected = jax.grad(direct)(x)
+    assert np.all(np.isfinite(expected))
+    np.testing.assert_allclose(jax.grad(via_scalarizer)(x), expected, rtol=1e-14)
+    np.testing.assert_allclose(
+        jax.jacfwd(via_scalarizer)(x), jax.jacfwd(direct)(x), rtol=1e-14
+    )
+    np.testing.assert_allclose(
+        jax.vmap(via_scalarizer)(jnp.stack([x, -x])), jax.vmap(direct)(jnp.stack([x, -x]))
+    )
+
+
+def test_large_arrays_stay_whole():
+    big = jnp.arange(MAX_SIZE + 1.0)
+    assert not _is_object_array(split(big))
+    small = split(jnp.arange(3.0))
+    assert _is_object_array(small) and small.shape == (3,)
+    f = lambda a, b: (jnp.cumsum(a)[:3] + b, a @ a)
+    assert_trees_close(run_scalarized(f, big, jnp.ones(3)), f(big, jnp.ones(3)))
+
+
+@pytest.fixture(scope="module")
+def m1():
+    return chen.build("M1")
+
+
+@pytest.fixture(scope="module")
+def pd_mrp():
+    from jaxatt.scenarios import rigid_body_pd
+
+    loop, x0 = rigid_body_pd.build()
+    return loop, x0
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        {},
+        {"sampling": ZeroOrderHold(0.01)},
+        {"solver": Euler()},
+        {"solver": dfx.Heun()},
+    ],
+    ids=["rk4", "zoh", "euler", "diffrax-heun"],
+)
+def test_simulate_scalarized_equals_simulate(m1, options):
+    x0 = chen.initial_state("D2")
+    kwargs = dict(dt=1e-3, save_every=50, **options)
+    plain = simulate(m1, x0, 0.0, 0.5, **kwargs)
+    fast = simulate(m1, x0, 0.0, 0.5, scalarize=True, **kwargs)
+    assert_trees_close(fast.states, plain.states, rtol=1e-12, atol=1e-14)
+    assert_trees_close(fast.signals, plain.signals, rtol=1e-11, atol=1e-12)
+
+
+def test_scalarized_mrp_shadow_switching_and_float32(pd_mrp):
+    loop, x0 = pd_mrp
+    x0 = MRPState(jnp.array([0.0, 0.0, 0.98]), jnp.array([0.0, 0.0, 0.5]))  # switches early
+    plain = simulate(loop, x0, 0.0, 1.0, dt=1e-3, save_every=100)
+    fast = simulate(loop, x0, 0.0, 1.0, dt=1e-3, save_every=100, scalarize=True)
+    assert np.any(np.diff(np.sign(np.asarray(plain.states.plant.sigma[:, 2]))) != 0)
+    assert_trees_close(fast.states, plain.states, rtol=1e-12, atol=1e-14)
+    loop32 = jtu.tree_map(lambda x: x.astype(jnp.float32) if eqx.is_inexact_array(x) else x, loop)
+    x32 = jtu.tree_map(lambda x: x.astype(jnp.float32), x0)
+    fast32 = simulate(loop32, x32, 0.0, 1.0, dt=1e-3, save_every=100, scalarize=True)
+    assert fast32.states.plant.sigma.dtype == jnp.float32
+    np.testing.assert_allclose(fast32.states.plant.sigma, plain.states.plant.sigma, atol=1e-5)
+
+
+def test_scalarized_gradients_equal_the_plain_ones(pd_mrp):
+    # Autodiff of a scalarized step uses the plain step's JVP (a custom rule): same numbers,
+    # with respect to gains, inertia and the initial state.
+    loop, x0 = pd_mrp
+
+    def loss(loop, x0, scalarize):
+        traj = simulate(loop, x0, 0.0, 0.2, dt=1e-3, save_every=20, scalarize=scalarize)
+        return jnp.sum(traj.signals["attitude_error"] ** 2) + jnp.sum(traj.signals["u"])
+
+    def gains(grads):
+        loop_grad, x0_grad = grads
+        return [loop_grad.controller.k1, loop_grad.controller.k2, loop_grad.plant.body.inertia,
+                x0_grad.sigma]
+
+    plain = gains(eqx.filter_grad(lambda a: loss(*a, False))((loop, x0)))
+    fast = gains(eqx.filter_grad(lambda a: loss(*a, True))((loop, x0)))
+    assert all(np.all(np.isfinite(g)) and np.any(g != 0) for g in plain)
+    assert_trees_close(fast, plain, rtol=1e-10, atol=1e-14)
+
+
+def test_vmapped_scalarized_simulation_lowers_to_elementwise_code(m1):
+    # The reason the scalarizer exists: a batch of closed loops compiles without the
+    # dot/transpose kernels that vmapped 3-vector code gives (DESIGN.md, performance notes).
+    x0 = jax.vmap(lambda k: chen.initial_state("D1"))(jr.split(jr.key(0), 8))
+    params, static = eqx.partition(m1, eqx.is_array)
+
+    def step_loop_hlo(scalarize):
+        @jax.jit
+        def run(params, x0):
+            loop = eqx.combine(params, static)
+            return jax.vmap(
+                lambda x: simulate(loop, x, 0.0, 0.01, dt=1e-3, save_every=10, scalarize=scalarize)
+            )(x0)
+
+        hlo = run.lower(params, x0).compile().as_text()
+        computations = {c.split(" ", 1)[0]: c for c in re.split(r"\n(?=%)", hlo)}
+        bodies = [computations["%" + name] for name in re.findall(r"body=%([\w.\-]+)", hlo)]
+        # The inner time loop: the while body that contains no loop itself.
+        (inner,) = [body for body in bodies if " while(" not in body]
+        return inner
+
+    assert " dot(" in step_loop_hlo(False)  # what the test guards against
+    fast = step_loop_hlo(True)
+    assert " dot(" not in fast and " transpose(" not in fast
