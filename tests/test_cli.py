@@ -45,10 +45,12 @@ def test_scenario_rigid_body_pd_reproduces(tmp_path, capsys):
 
 
 def test_tune_command_writes_a_report_and_resumes(tmp_path, capsys):
-    args = ["tune", "chen2022", "--samples", "4", "--steps", "2", "--out", str(tmp_path)]
+    args = ["tune", "chen2022", "--samples", "4", "--steps", "2", "--validation-samples", "4",
+            "--out", str(tmp_path)]
     assert cli.main(args) == 0
     first = json.loads((tmp_path / "tuning.json").read_text())
     assert len(first["losses"]) == 2 and (tmp_path / "checkpoint.eqx").exists()
+    assert first["settings"]["validation_samples"] == 4
     # Resuming a finished run does no further steps and reports the same gains.
     assert cli.main(args + ["--resume"]) == 0
     again = json.loads((tmp_path / "tuning.json").read_text())

@@ -77,7 +77,12 @@ def _cmd_tune(args: argparse.Namespace) -> int:
         return 2
     out = pathlib.Path(args.out) if args.out else pathlib.Path("jaxatt-out") / f"tune-{args.name}"
     report = TUNING[args.name].run(
-        out, samples=args.samples, steps=args.steps, resume=args.resume, progress=True
+        out,
+        samples=args.samples,
+        steps=args.steps,
+        validation_samples=args.validation_samples,
+        resume=args.resume,
+        progress=True,
     )
     print(json.dumps({k: report[k] for k in ("gains_before", "gains_after", "validation")},
                      indent=2))
@@ -107,6 +112,9 @@ def build_parser() -> argparse.ArgumentParser:
     tun.add_argument("name", help="tuning problem (chen2022)")
     tun.add_argument("--samples", type=int, default=256, help="training batch size")
     tun.add_argument("--steps", type=int, default=30, help="optimizer steps")
+    tun.add_argument(
+        "--validation-samples", type=int, default=256, help="held-out batch size (fresh key)"
+    )
     tun.add_argument("--out", help="output folder (default ./jaxatt-out/tune-NAME)")
     tun.add_argument("--resume", action="store_true", help="continue from the checkpoint")
     tun.set_defaults(func=_cmd_tune)

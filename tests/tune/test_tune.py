@@ -52,6 +52,20 @@ def _small_problem(n=3, horizon=2.0, dt=1e-2):
     return loop, x0s, params, objective
 
 
+def test_applied_gains_keep_the_template_types_so_nothing_recompiles():
+    # Regression: tuned modules had strongly typed gains where the template's were weak, so
+    # every program compiled for the template compiled again for the tuned module.
+    loop, _, params, _ = _small_problem()
+    u = {k: v + 0.1 for k, v in tune.initial_unconstrained(loop, params).items()}
+    tuned = tune.apply(loop, params, u)
+    for name, p in params.items():
+        assert jax.typeof(p.where(tuned)) == jax.typeof(p.where(loop)), name
+        assert not np.allclose(p.where(tuned), p.where(loop)), name
+    traced = eqx.filter_jit(lambda u: tune.apply(loop, params, u))(u)
+    for name, p in params.items():
+        assert jax.typeof(p.where(traced)) == jax.typeof(p.where(loop)), name
+
+
 def test_tuning_gradient_matches_central_differences():
     """d(objective)/d(unconstrained) by reverse mode against central differences of the same
     objective (2 samples, 1.5 s, dt 1.5e-2). Both sides differentiate the same discrete map, so

@@ -59,7 +59,7 @@ def objective(dt: float = DT, horizon: float = HORIZON) -> tuning.SettlingObject
         dt=dt,
         tolerance=TOLERANCE,
         penalties=(tuning.Penalty("chattering", CHATTERING_BOUND, 1.0),),
-        chattering_window=(horizon - 5.0, horizon),
+        chattering_window=(max(0.0, horizon - 5.0), horizon),
     )
 
 

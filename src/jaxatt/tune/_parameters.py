@@ -6,6 +6,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax._src.lax.lax import _convert_element_type  # keeps weak types (see `_like`)
 from jaxtyping import Array, PyTree
 
 from ._transforms import AbstractTransform
@@ -78,7 +79,16 @@ def apply(template: eqx.Module, parameters: Parameters, unconstrained: dict[str,
     module = template
     for name, value in constrained(unconstrained, parameters).items():
         old = parameters[name].where(module)
-        # Keep the template's dtype and weak type so the compiled program is reused.
-        value = jax.lax.convert_element_type(value, old.dtype)
-        module = eqx.tree_at(parameters[name].where, module, value)
+        module = eqx.tree_at(parameters[name].where, module, _like(value, old))
     return module
+
+
+def _like(value: Array, old: Array) -> Array:
+    """`value` with the dtype *and weak type* of `old`.
+
+    Gains built from Python floats are weakly typed; a tuned module whose gains are strongly
+    typed would not match the template's compiled programs and would compile them again.
+    `lax.convert_element_type` always returns a strong type, hence the private converter.
+    """
+    weak = bool(jax.typeof(old).weak_type)
+    return _convert_element_type(value, old.dtype, weak_type=weak)
