@@ -72,6 +72,14 @@ def test_reproduce_chen2022_short_writes_figures_and_metrics(tmp_path, capsys):
     assert len(figures) == 11 and "fig5_sliding_variable_D1.png" in figures
 
 
+def test_bench_prints_a_checked_table(capsys):
+    assert cli.main(["bench", "--batches", "1", "8", "--horizon", "0.05"]) == 0
+    out = capsys.readouterr().out
+    assert "jaxatt/scan" in out and "float64" in out
+    rows = [line for line in out.splitlines() if line.strip().startswith(("1 |", "8 |"))]
+    assert len(rows) == 2
+
+
 def test_unknown_scenario_is_an_error(capsys):
     assert cli.main(["reproduce", "nope"]) == 2
     assert "unknown scenario" in capsys.readouterr().err
