@@ -135,8 +135,21 @@ def test_interrupted_run_resumes_bit_identically(tmp_path):
         assert np.array_equal(resumed.gains[name], full.gains[name]), name  # bit-identical
     assert np.array_equal(resumed.losses, full.losses)
     assert full.losses[-1] < full.losses[0]  # the loop does descend
-    # One compilation served all three runs (every step of each, before and after resuming).
+    # A run stopped on purpose (steps=1) continues to a larger total just as exactly.
+    short_path = tmp_path / "short.eqx"
+    common = dict(optimizer=optimizer, checkpoint=short_path, progress=False)
+    tune.tune(loop, params, objective, x0s, steps=1, **common)
+    longer = tune.tune(loop, params, objective, x0s, steps=4, resume=True, **common)
+    assert np.array_equal(longer.losses, full.losses)
+    for name in params:
+        assert np.array_equal(longer.gains[name], full.gains[name]), name
+    # One compilation served all these runs (every step of each, before and after resuming).
     assert _step._cached._cache_size() - compiled_before == 1
+    with pytest.raises(ValueError, match="4 steps done, more than steps=2"):
+        tune.tune(loop, params, objective, x0s, steps=2, resume=True, **common)
+    with pytest.raises(ValueError, match="does not belong to this tuning problem"):
+        tune.tune(loop, params, objective, x0s, steps=6, resume=True, progress=False,
+                  optimizer=optax.sgd(0.1), checkpoint=short_path)
 
 
 @pytest.mark.parametrize(

@@ -11,7 +11,8 @@ initial attitudes within 60 deg of the reference with rates up to 0.05 rad/s per
   chattering penalty $\max(0, TV - 1)^2$ on the total variation of $u$ over the last 5 s.
 - **Simulation for tuning:** 10 s, RK4, dt = 5e-3 s (the reported numbers are re-measured
   on the held-out batch at dt = 1e-3 s too). Transforms: $\rho, \eta, \lambda$ positive
-  ($e^u$), $p_1/q_1 = 1 + e^u$, $q_2/p_2$ = sigmoid; optimizer Adam(0.1).
+  ($e^u$), $p_1/q_1 = 1 + e^u$, $q_2/p_2$ = sigmoid; optimizer Adam(0.1) after clipping the
+  gradient to global norm 1 ([`optimizer`][]).
 - **Validation:** a fresh held-out batch drawn with another key.
 """
 
@@ -36,6 +37,8 @@ DT = 5e-3
 CHATTERING_BOUND = 1.0
 """Stated bound on the chattering metric (total variation of u over the last 5 s) [N m]."""
 LEARNING_RATE = 0.1
+GRADIENT_CLIP = 1.0
+"""Global-norm clip applied before Adam (see [`optimizer`][])."""
 
 
 def parameters() -> dict[str, tuning.Parameter]:
@@ -51,6 +54,18 @@ def parameters() -> dict[str, tuning.Parameter]:
             lambda m: m.controller.reaching_law.alpha, tuning.Interval(0.0, 1.0)
         ),
     }
+
+
+def optimizer() -> optax.GradientTransformation:
+    """`optax.chain(optax.clip_by_global_norm(1.0), optax.adam(0.1))`.
+
+    The chattering penalty is quadratic: where a step enters a chattering regime its gradient
+    is orders of magnitude larger than elsewhere. Unclipped, one such gradient inflated Adam's
+    second-moment estimate so much that the following steps stalled in the bad region (a
+    32-sample run ended 11 % *slower* than the paper's gains on held-out data); clipped
+    first, the same run recovered and ended 42 % faster.
+    """
+    return optax.chain(optax.clip_by_global_norm(GRADIENT_CLIP), optax.adam(LEARNING_RATE))
 
 
 def objective(dt: float = DT, horizon: float = HORIZON) -> tuning.SettlingObjective:
@@ -121,7 +136,7 @@ def run(
         objective(),
         train,
         steps=steps,
-        optimizer=optax.adam(LEARNING_RATE),
+        optimizer=optimizer(),
         checkpoint=out / "checkpoint.eqx",
         resume=resume,
         progress=progress,
@@ -137,7 +152,7 @@ def run(
             "max_initial_angle_deg": float(np.degrees(MAX_ANGLE)),
             "max_initial_rate": MAX_RATE,
             "chattering_bound": CHATTERING_BOUND,
-            "optimizer": f"adam({LEARNING_RATE})",
+            "optimizer": f"clip_by_global_norm({GRADIENT_CLIP}) + adam({LEARNING_RATE})",
             "seed": seed,
         },
         "gains_before": {k: float(v) for k, v in result.initial_gains.items()},
