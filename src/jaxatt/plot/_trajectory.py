@@ -3,6 +3,7 @@
 import contextlib
 from collections.abc import Iterator, Sequence
 
+import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.axes import Axes
@@ -17,18 +18,26 @@ _AXIS_LABELS = ("x", "y", "z")
 @contextlib.contextmanager
 def style() -> Iterator[None]:
     """A local matplotlib style for jaxatt figures (never changes global rcParams)."""
-    with plt.rc_context(
-        {
-            "figure.dpi": 110,
-            "axes.grid": True,
-            "grid.alpha": 0.3,
-            "axes.spines.top": False,
-            "axes.spines.right": False,
-            "legend.frameon": False,
-            "font.size": 9,
-        }
-    ):
-        yield
+    interactive = matplotlib.is_interactive()
+    try:
+        with plt.rc_context(
+            {
+                "figure.dpi": 110,
+                "axes.grid": True,
+                "grid.alpha": 0.3,
+                "axes.spines.top": False,
+                "axes.spines.right": False,
+                "legend.frameon": False,
+                "font.size": 9,
+            }
+        ):
+            yield
+            interactive = matplotlib.is_interactive()
+    finally:
+        # rc_context restores *every* rcParam, also `interactive`, which Jupyter's inline
+        # backend switches on when the first figure of a session is made; rolled back, every
+        # later figure of the notebook was silently not displayed.
+        matplotlib.interactive(interactive)
 
 
 def _new_axes(ax: Axes | None) -> Axes:
