@@ -21,7 +21,7 @@ def test_demo_runs_the_whole_workflow_and_reports_measured_numbers(tmp_path, cap
     # The reproduction, the Monte Carlo and the tuning all ran and their numbers are reported.
     assert set(summary["chen2022"]) == {"D1", "D2"}
     for name in ("M1", "M2", "M3"):
-        assert summary["monte_carlo"][name]["count"] == 32
+        assert summary["monte_carlo"][name]["count"] == 16
         assert summary["monte_carlo"][name]["failed"] == 0
     tuned = summary["tuning"]
     before = tuned["held_out_before"]["mean_settling_time"]

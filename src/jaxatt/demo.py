@@ -46,8 +46,9 @@ def run(
 ) -> dict:
     """Run the demo and write everything under `out_dir`; returns the summary it reports.
 
-    `short=True` (CI) shrinks every stage: Chen reproduction in short mode, 32 Monte Carlo
-    samples, 8 training samples and 3 tuning steps.
+    `short=True` (CI) shrinks every stage: Chen reproduction in short mode, 16 Monte Carlo
+    samples, 4 training samples, 2 tuning steps and 16 held-out samples validated at the tuning
+    step only.
     """
     import matplotlib.pyplot as plt
 
@@ -62,7 +63,7 @@ def run(
     timings["chen2022_reproduction"] = time.perf_counter() - start
 
     start = time.perf_counter()
-    n = 32 if short else MC_SAMPLES
+    n = 16 if short else MC_SAMPLES
     x0s = chen2022_tuning.initial_states(jr.key(42), n)
     mc = {}
     for name in chen.CONTROLLERS:
@@ -85,10 +86,11 @@ def run(
     start = time.perf_counter()
     tuning = chen2022_tuning.run(
         out / "tuning",
-        samples=8 if short else tuning_samples,
-        steps=3 if short else tuning_steps,
-        validation_samples=32 if short else 128,
+        samples=4 if short else tuning_samples,
+        steps=2 if short else tuning_steps,
+        validation_samples=16 if short else 128,
         progress=progress,
+        validate_at_paper_step=not short,
     )
     timings["tuning_and_validation"] = time.perf_counter() - start
     summary = {
