@@ -5,7 +5,8 @@ cost and memory analyses, and the end of a run (load average, JSON, exit code).
 The timing convention (ahead-of-time `f.lower(*args).compile()` timed alone, one warm-up call,
 then `min(timeit.repeat(lambda: jax.block_until_ready(f(x)), number=1, repeat=R))`, fewer
 repeats when they would take over `--max-seconds`), the scenario checks and the initial states
-are those of `bench_montecarlo.py`, imported from it rather than copied.
+are those of `bench_montecarlo.py` and `jaxatt bench` (`jaxatt.bench._quick`), imported rather
+than copied.
 
 Nothing here creates a JAX array at import: each script enables float64 (or not) first.
 """
@@ -21,6 +22,8 @@ import time
 import jax
 import numpy as np
 
+from jaxatt.bench import _quick
+
 
 try:  # imported as `benchmarks._common`
     from . import bench_montecarlo as montecarlo
@@ -31,10 +34,10 @@ except ImportError:  # run as a script: benchmarks/ is sys.path[0]
 HERE = pathlib.Path(__file__).resolve().parent
 RESULTS_DIR = HERE / "results"
 
-# Re-exported from bench_montecarlo: one definition of the conventions for every benchmark.
-time_jax = montecarlo.time_jax
-run_time = montecarlo.run_time
-default_save_every = montecarlo.default_save_every
+# Re-exported: one definition of the conventions for every benchmark (`jaxatt bench` included).
+time_jax = _quick.time_jax
+run_time = _quick.run_time
+default_save_every = _quick.default_save_every
 fmt = montecarlo.fmt
 
 

@@ -162,32 +162,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     return args
 
 
-
-
-
-
-# ---------------------------------------------------------------------------------------------
-# The scenario and its checks.
-
-
-
-
-
-
-
-
 # ---------------------------------------------------------------------------------------------
 # The implementations.
-
-
-
-
-
-
-
-
-
-
 
 
 def time_scipy(q, omega, horizon, samples, repeat, max_seconds) -> dict:
@@ -274,14 +250,8 @@ def run_basilisk(hook, n_steps, dt) -> tuple[dict | None, str | None]:
     return {**out, "steps_per_s": float(rate)}, None
 
 
-
-
 # ---------------------------------------------------------------------------------------------
 # Measurements.
-
-
-
-
 
 
 # ---------------------------------------------------------------------------------------------

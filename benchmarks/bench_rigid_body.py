@@ -39,15 +39,8 @@ Usage (from the repository root):
 """
 
 import argparse
-import datetime
-import json
 import math
-import os
-import pathlib
-import platform
 import sys
-import time
-import timeit
 
 
 # Constants of the scenario, written out independently of jaxatt (checked against the jaxatt
@@ -119,11 +112,12 @@ if ARGS.dtype == "float64":
 import equinox as eqx  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import jax.random as jr  # noqa: E402
-import jaxlib  # noqa: E402
 import numpy as np  # noqa: E402
-import scipy  # noqa: E402
+from _common import finish  # noqa: E402 (load average, JSON, exit code)
+from bench_montecarlo import machine_meta  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
+from jaxatt.bench._quick import run_time, time_jax  # noqa: E402 (the shared timing)
 from jaxatt.plants import MRPState  # noqa: E402
 from jaxatt.scenarios import rigid_body_pd  # noqa: E402
 from jaxatt.simulation import simulate  # noqa: E402
@@ -277,30 +271,7 @@ def scipy_trajectory(sigma0, omega0, t1):
 
 
 # ---------------------------------------------------------------------------------------------
-# Timing helpers.
-
-
-def run_time(f, repeat):
-    return min(timeit.repeat(f, number=1, repeat=repeat))
-
-
-def time_jax(f, args, repeat, max_seconds):
-    """Compile time, run time and output of a jitted `f` (`jax.jit` or `eqx.filter_jit`).
-
-    Compile time is ahead-of-time `f.lower(*args).compile()` (trace, lower, XLA compile), no
-    run. Then one warm-up call, then `min(timeit.repeat(..., number=1, repeat=n))` with
-    n = `repeat`, reduced so that the repeats take about `max_seconds`; when the warm-up alone
-    takes longer than `max_seconds`, n = 0 and the warm-up call is the measurement.
-    """
-    start = time.perf_counter()
-    compiled = f.lower(*args).compile()
-    compile_s = time.perf_counter() - start
-    start = time.perf_counter()
-    out = jax.block_until_ready(compiled(*args))
-    warm = time.perf_counter() - start
-    n = min(repeat, int(max_seconds // warm))
-    run = run_time(lambda: jax.block_until_ready(compiled(*args)), n) if n else warm
-    return compile_s, run, out, n
+# The scenario check.
 
 
 def check_scenario(loop):
@@ -352,32 +323,8 @@ def main(args):
 
         return jax.vmap(one)(x0s)
 
-    cpu_model = "unknown"
-    try:
-        for line in pathlib.Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu_model = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    meta = {
-        "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "devices": [str(d) for d in jax.devices()],
-        "device_kind": jax.devices()[0].device_kind,
-        "platform": platform.platform(),
-        "python": sys.version.split()[0],
-        "cpu_count": os.cpu_count(),
-        "cpu_model": cpu_model,
-        "versions": {
-            "jax": jax.__version__,
-            "jaxlib": jaxlib.__version__,
-            "equinox": eqx.__version__,
-            "numpy": np.__version__,
-            "scipy": scipy.__version__,
-        },
-        "EQX_ON_ERROR": os.environ.get("EQX_ON_ERROR"),
-        "load_average_start": os.getloadavg(),
-    }
+    meta = machine_meta()
+    cpu_model = meta["cpu_model"]
     print("devices:", meta["devices"], "| kind:", meta["device_kind"])
     print(f"CPU: {cpu_model}, os.cpu_count() = {meta['cpu_count']}")
     print("versions:", ", ".join(f"{k} {v}" for k, v in meta["versions"].items()))
@@ -585,16 +532,6 @@ def main(args):
             f"crossing by SciPy, at the step end by RK4): "
             f"{correctness['scipy_samples_with_switch_event']}"
         )
-    print("check:", "PASSED" if ok else "FAILED")
-
-    meta["load_average_end"] = os.getloadavg()
-    print(
-        "load average (1, 5, 15 min) at start "
-        + ", ".join(f"{x:.2f}" for x in meta["load_average_start"])
-        + ", at end "
-        + ", ".join(f"{x:.2f}" for x in meta["load_average_end"])
-        + f" ({meta['cpu_count']} CPUs; above that, other processes shared the cores)"
-    )
     result = {
         "benchmark": "rigid_body_pd closed-loop throughput",
         "units": {"rate": "state-steps per second (batch x RK4 steps / run wall time)"},
@@ -604,7 +541,6 @@ def main(args):
             "save_every": save_every,
             "scipy": {"method": "RK45", "rtol": 1e-8, "atol": 1e-10},
         },
-        "meta": meta,
         "scipy_trajectories": [
             {"wall_s": t, **stats} for t, stats in zip(scipy_times, scipy_stats)
         ],
@@ -612,11 +548,7 @@ def main(args):
         "correctness": correctness,
         "notes": notes,
     }
-    out = pathlib.Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
-    print(f"wrote {out}")
-    return 0 if ok else 1
+    return finish(result, meta, args.out, ok)
 
 
 if __name__ == "__main__":
