@@ -5,10 +5,12 @@ dt = 1e-3 s, 30 N m per-axis saturation), initial states from
 `jaxatt.scenarios.chen2022_tuning.initial_states(jr.key(seed), n)`.
 
 **What runs.** `bench_montecarlo.make_jaxatt(call, T, dt, save_every)`: with `--jaxatt-call
-vmap` (default) `eqx.filter_jit(lambda loop, x0s: jax.vmap(lambda x0: simulate(loop, x0, 0, T,
-dt=dt, throw=False, save_every=S))(x0s))`, with `monte_carlo` the same through
-`jaxatt.montecarlo.monte_carlo(..., keep_trajectories=True)`; the loop is an argument, `S` is
-the largest divisor of the step count not above steps/10 (11 saves).
+monte_carlo` (default) `eqx.filter_jit` of `jaxatt.montecarlo.monte_carlo(loop, x0s, 0, T,
+dt=dt, save_every=S, keep_trajectories=True)` (what users call: from 1000 samples on it runs
+`simulate(..., scalarize=True)`, so the batch sweep shows that switch); with `vmap`
+`eqx.filter_jit(lambda loop, x0s: jax.vmap(lambda x0: simulate(loop, x0, 0, T, dt=dt,
+throw=False, save_every=S))(x0s))`, the plain vmapped program at every batch. The loop is an
+argument, `S` is the largest divisor of the step count not above steps/10 (11 saves).
 
 1. **Batch sweep** (`--batches`, at `--horizon`): compile time, run time, state-steps per
    second (batch x RK4 steps / run time), time per step (run time / steps: one step of the whole
@@ -26,11 +28,17 @@ warm-up call, then `min(timeit.repeat(lambda: jax.block_until_ready(f(loop, x0s)
 repeat=R))`, fewer repeats when they would take over `--max-seconds` (0: the warm-up call is
 the measurement).
 
-Figures: `benchmarks/results/scaling_batch.png` and `scaling_horizon.png`.
+Figures: `<JSON stem>_batch.png` and `<JSON stem>_horizon.png` next to the JSON file
+(`benchmarks/results/scaling_batch.png` and `scaling_horizon.png` by default).
 
 **Checks** (exit code 1 when one fails): no sample has a non-finite state; the final states of
 each smaller batch equal those of the same samples in the largest batch (1e-9; float32 1e-4);
-chunked `monte_carlo` gives the unchunked metrics (1e-9; float32 1e-4).
+chunked `monte_carlo` gives the unchunked metrics (1e-9; float32 1e-4; relative to the metric
+where it exceeds 1, as for the effort, ~1e3) when both run the same program. Chunks under
+`SCALARIZE_FROM` = 1000 samples are not scalarized while the unchunked batch is: their
+difference is reported, not checked (their final states agree to ulps, but over a sliding phase
+the two programs' rounding differences grow transiently: 6.8e-9 of the effort of one sample
+in 16384 over 2 s, measured).
 
 **Recorded defaults** (estimated 8 to 12 minutes on 2 cores, half of it the batch-16384 runs):
 
@@ -45,6 +53,7 @@ A small run (about 2 minutes on a loaded 2-core machine):
 """
 
 import argparse
+import pathlib
 import sys
 
 import jax
@@ -67,7 +76,9 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--horizon", type=float, default=10.0, help="horizon of the batch sweep [s]")
     p.add_argument("--horizons", type=float, nargs="+", default=[1.0, 3.0, 10.0, 30.0], help="[s]")
     p.add_argument("--horizon-batch", type=int, default=1024, help="batch of the horizon sweep")
-    p.add_argument("--jaxatt-call", choices=sorted(common.montecarlo.JAXATT_CALLS), default="vmap")
+    p.add_argument(
+        "--jaxatt-call", choices=sorted(common.montecarlo.JAXATT_CALLS), default="monte_carlo"
+    )
     p.add_argument("--chunk", action="store_true", help="also time lax.map chunk sizes")
     p.add_argument("--chunk-sizes", type=int, nargs="+", default=[256, 1024, 4096])
     p.add_argument(
@@ -108,12 +119,21 @@ def measure(run, loop, x0s, steps: int, args) -> tuple[dict, object]:
 
 
 def finite_diff(a, b) -> float:
-    """max |a - b| where both are finite; inf if they are not finite at the same places."""
+    """max |a - b| / max(1, |b|) where both are finite (an absolute difference for entries of
+    order one or less, a relative one for larger metrics such as the effort, ~1e3 N^2 m^2 s);
+    inf if they are not finite at the same places."""
     a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
     finite = np.isfinite(b)
     if not np.array_equal(finite, np.isfinite(a)):
         return float("inf")
-    return float(np.max(np.abs(a[finite] - b[finite]), initial=0.0))
+    scale = np.maximum(1.0, np.abs(b[finite]))
+    return float(np.max(np.abs(a[finite] - b[finite]) / scale, initial=0.0))
+
+
+def figure_path(args, sweep: str) -> pathlib.Path:
+    """`<JSON stem>_<sweep>.png` next to the JSON file (results/scaling_batch.png by default)."""
+    out = pathlib.Path(args.out)
+    return out.with_name(f"{out.stem}_{sweep}.png")
 
 
 def saturation(rows) -> dict:
@@ -266,7 +286,7 @@ def chunk_study(loop, pool, args) -> tuple[list[dict], float | None]:
     largest difference of a chunked run's metrics from the unchunked ones."""
     import equinox as eqx
 
-    from jaxatt.montecarlo import monte_carlo
+    from jaxatt.montecarlo import default_scalarize, monte_carlo
     from jaxatt.simulation import RESULTS
 
     steps = common.steps_of(args.chunk_horizon, args.dt)
@@ -276,7 +296,7 @@ def chunk_study(loop, pool, args) -> tuple[list[dict], float | None]:
         f"chunks: monte_carlo(..., batch_size=B) at batch {args.chunk_batch}, "
         f"T = {args.chunk_horizon:g} s (default metrics only):"
     )
-    rows, reference, worst = [], None, None
+    rows, reference, reference_scalarized, worst = [], None, None, None
     for size in [None, *sorted(args.chunk_sizes)]:
 
         @eqx.filter_jit
@@ -294,19 +314,29 @@ def chunk_study(loop, pool, args) -> tuple[list[dict], float | None]:
 
         row, (metrics, successful) = measure(chunked, loop, x0s, steps, args)
         row["batch_size"] = size
+        row["scalarized"] = default_scalarize(args.chunk_batch, batch_size=size)
         row["failed_samples"] = int(np.sum(~np.asarray(successful)))
         metrics = {k: np.asarray(v) for k, v in metrics.items()}
+        note = ""
         if reference is None:
-            reference = metrics
+            reference, reference_scalarized = metrics, row["scalarized"]
         else:
-            row["max_abs_diff_metrics"] = max(
+            row["max_scaled_diff_metrics"] = max(
                 finite_diff(metrics[k], ref) for k, ref in reference.items()
             )
-            worst = max(worst or 0.0, row["max_abs_diff_metrics"])
+            note = f", metrics differ by {row['max_scaled_diff_metrics']:.3g}"
+            # Chunking alone must not change a number; a chunk that runs the other program
+            # (plain vs scalarized) is reported only: over a sliding phase, rounding
+            # differences between the two grow (|s|^a with a < 1 is steep near s = 0).
+            if row["scalarized"] == reference_scalarized:
+                worst = max(worst or 0.0, row["max_scaled_diff_metrics"])
+            else:
+                note += " (other program: reported, not checked)"
         rows.append(row)
         print(
-            f"  batch_size {size or 'None':>6}: compile {row['compile_s']:.2f} s, run "
-            f"{row['run_s']:.4g} s, {row['state_steps_per_s']:.3g} state-steps/s",
+            f"  batch_size {size or 'None':>6}: scalarized {row['scalarized']}, compile "
+            f"{row['compile_s']:.2f} s, run {row['run_s']:.4g} s, "
+            f"{row['state_steps_per_s']:.3g} state-steps/s{note}",
             flush=True,
         )
     for row in rows:
@@ -338,12 +368,12 @@ def main(args) -> int:
     print("  " + describe_saturation(sat))
     figures = []
     if not args.no_plot:
-        path = common.results_path(args, "scaling_batch.png")
+        path = figure_path(args, "batch")
         path.parent.mkdir(parents=True, exist_ok=True)
         plot_batch(batch_rows, sat, args, meta, path)
         figures.append(str(path))
         if horizon_rows:
-            path = common.results_path(args, "scaling_horizon.png")
+            path = figure_path(args, "horizon")
             plot_horizon(horizon_rows, args, meta, path)
             figures.append(str(path))
         print("figures:", ", ".join(figures))
@@ -351,7 +381,7 @@ def main(args) -> int:
     checks = {
         "failed_samples": failed,
         "max_abs_diff_final_state_across_batches": batch_diff,
-        "max_abs_diff_chunked_metrics": chunk_diff,
+        "max_scaled_diff_chunked_metrics_same_program": chunk_diff,
         "tolerance": tol,
     }
     ok = failed == 0 and batch_diff <= tol and (chunk_diff is None or chunk_diff <= tol)
@@ -362,7 +392,11 @@ def main(args) -> int:
         f"batch {max(args.batches)}: {batch_diff:.3g} (tolerance {tol:g})"
     )
     if chunk_diff is not None:
-        print(f"check: max |chunked - unchunked| metrics: {chunk_diff:.3g} (tolerance {tol:g})")
+        print(
+            "check: max |chunked - unchunked| / max(1, |unchunked|) metrics, chunks running "
+            "the unchunked program: "
+            f"{chunk_diff:.3g} (tolerance {tol:g})"
+        )
     result = {
         "benchmark": "chen2022 M1 Monte Carlo scaling with batch size and horizon",
         "units": {
