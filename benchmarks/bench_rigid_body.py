@@ -42,6 +42,20 @@ import argparse
 import math
 import sys
 
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+import numpy as np
+from _common import finish  # load average, JSON, exit code
+from bench_montecarlo import machine_meta
+from scipy.integrate import solve_ivp
+
+from jaxatt.bench._quick import run_time, time_jax  # the shared timing
+from jaxatt.plants import MRPState
+from jaxatt.scenarios import rigid_body_pd
+from jaxatt.simulation import simulate
+
 
 # Constants of the scenario, written out independently of jaxatt (checked against the jaxatt
 # closed loop at start-up).
@@ -99,28 +113,6 @@ def parse_args(argv=None) -> argparse.Namespace:
         suffix = "" if args.dtype == "float64" else "_float32"
         args.out = f"benchmarks/results/rigid_body{suffix}.json"
     return args
-
-
-ARGS = parse_args()
-
-import jax  # noqa: E402
-
-
-if ARGS.dtype == "float64":
-    jax.config.update("jax_enable_x64", True)
-
-import equinox as eqx  # noqa: E402
-import jax.numpy as jnp  # noqa: E402
-import jax.random as jr  # noqa: E402
-import numpy as np  # noqa: E402
-from _common import finish  # noqa: E402 (load average, JSON, exit code)
-from bench_montecarlo import machine_meta  # noqa: E402
-from scipy.integrate import solve_ivp  # noqa: E402
-
-from jaxatt.bench._quick import run_time, time_jax  # noqa: E402 (the shared timing)
-from jaxatt.plants import MRPState  # noqa: E402
-from jaxatt.scenarios import rigid_body_pd  # noqa: E402
-from jaxatt.simulation import simulate  # noqa: E402
 
 
 # ---------------------------------------------------------------------------------------------
@@ -299,6 +291,8 @@ def fmt_rate(x):
 
 
 def main(args):
+    if args.dtype == "float64":  # before any array exists (DESIGN.md, Numerics)
+        jax.config.update("jax_enable_x64", True)
     dtype = np.dtype(args.dtype)
     n_steps = round(args.horizon / args.dt)
     save_every = max(1, n_steps // 10)
@@ -552,4 +546,4 @@ def main(args):
 
 
 if __name__ == "__main__":
-    sys.exit(main(ARGS))
+    sys.exit(main(parse_args()))
