@@ -205,3 +205,25 @@ def test_aggregates():
     assert np.isclose(float(tune.Quantile(0.5)(values)), 5.5)
     with pytest.raises(ValueError, match="`alpha` must lie in"):
         tune.CVaR(1.0)
+
+
+def test_the_chen_tuning_configuration_is_one_static_argument_across_calls():
+    # `tune`'s compiled step takes the parameters (their `where` functions) and the optimizer
+    # as static arguments, compared by identity. Regression: the scenario built fresh lambdas
+    # and a fresh optax chain on every call, so `jaxatt demo` and `jaxatt tune` in one process
+    # (and the tuning notebook's second run) compiled the same 15 s step twice.
+    from jaxatt.scenarios import chen2022_tuning as problem
+
+    def cache_key(optimizer):
+        # What `eqx.filter_jit` keys its cache on: the non-array leaves and the tree structure.
+        static = eqx.partition((problem.parameters(), optimizer), eqx.is_array)[1]
+        leaves, treedef = jax.tree_util.tree_flatten(static)
+        return tuple(leaves), treedef
+
+    first, second = cache_key(problem.optimizer()), cache_key(problem.optimizer())
+    assert first == second and hash(first) == hash(second)
+    # The check is not vacuous: a fresh chain of the same transformations is a new argument.
+    fresh = optax.chain(
+        optax.clip_by_global_norm(problem.GRADIENT_CLIP), optax.adam(problem.LEARNING_RATE)
+    )
+    assert cache_key(fresh) != first

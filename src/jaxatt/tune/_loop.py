@@ -33,6 +33,10 @@ class TuneResult:
     steps: int
 
 
+_DEFAULT_OPTIMIZER = optax.adam(0.05)
+"""One object, so that runs with the default optimizer share their compiled step."""
+
+
 @eqx.filter_jit
 def _step(unconstrained, opt_state, template, parameters, objective, inputs, optimizer):
     def loss_fn(u):
@@ -81,6 +85,11 @@ def tune(
     - `inputs`: the training batch (e.g. stacked initial states), fixed for the whole run.
     - `steps`: total number of optimizer steps (a resumed run continues up to it).
     - `optimizer`: an optax transformation; default `optax.adam(0.05)`.
+
+    The optimizer and the parameters' `where` selectors are static arguments of the compiled
+    step, compared by identity (they are functions). Reuse the same objects across runs (or
+    module-level functions as selectors) and the runs share one compiled step; a fresh
+    `optax.adam(...)` or lambda per run compiles the step again.
     - `checkpoint`: file for `eqx.tree_serialise_leaves` checkpoints, written every
       `checkpoint_every` steps, at the end, and when interrupted (Ctrl-C).
     - `resume`: continue from `checkpoint` if it exists. A resumed run ends bit-identical to
@@ -110,7 +119,7 @@ def tune(
     check_parameters(template, parameters)
     _check_inputs(inputs)
     if optimizer is None:
-        optimizer = optax.adam(0.05)
+        optimizer = _DEFAULT_OPTIMIZER
 
     unconstrained = initial_unconstrained(template, parameters)
     initial_gains = {k: np.asarray(v) for k, v in constrained(unconstrained, parameters).items()}
