@@ -19,3 +19,39 @@ import pytest  # noqa: E402
 @pytest.fixture
 def key():
     return jr.key(0)
+
+
+
+# Scheduling for `pytest -n 2`. Nearly all of the suite's time is XLA compilation, and a
+# worker compiles a program once, so the work is handed out by test module: tests of one
+# module (sharing fixtures, closed loops and horizons) run on one worker and compile their
+# programs once. Modules whose tests share nothing (each notebook runs in its own kernel) are
+# handed out test by test. The longest units go first: started last, one would leave the other
+# worker idle. (pytest-xdist's `--dist loadgroup` cannot be used: with pytest 9.2 its
+# `xdist_group` markers are silently ignored, because node ids can no longer be rewritten.)
+SPREAD_MODULES = ("tests/test_notebooks.py",)
+FIRST_MODULES = ("tests/test_notebooks.py", "tests/test_cli.py")  # longest first
+
+
+def pytest_collection_modifyitems(config, items):
+    """Collection order is the order work is handed out: `FIRST_MODULES` first."""
+
+    def rank(item) -> int:
+        module = item.nodeid.split("::")[0]
+        return FIRST_MODULES.index(module) if module in FIRST_MODULES else len(FIRST_MODULES)
+
+    items.sort(key=rank)  # stable: the other modules keep their order
+
+
+def pytest_xdist_make_scheduler(config, log):
+    from xdist.scheduler import LoadScopeScheduling
+
+    class ByModule(LoadScopeScheduling):
+        """Each module is one unit of work, except `SPREAD_MODULES` (one unit per test)."""
+
+        def _split_scope(self, nodeid: str) -> str:
+            module = nodeid.split("::")[0]
+            return nodeid if module in SPREAD_MODULES else module
+
+    config.option.loadscopereorder = False  # hand units out in collection order (see above)
+    return ByModule(config, log)

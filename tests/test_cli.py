@@ -7,9 +7,9 @@ import pytest
 from jaxatt import cli
 
 
-# In-process commands share compiled programs (the demo's Chen reproduction and tuning step
-# are the ones `reproduce chen2022 --short` and `tune` compile): keep them on one xdist worker.
-pytestmark = pytest.mark.xdist_group("cli")
+# In-process commands share compiled programs: the demo's Chen reproduction and tuning step are
+# the ones `reproduce chen2022 --short` and `tune` use (the module runs on one xdist worker,
+# tests/conftest.py).
 
 
 def test_list_names_the_scenarios(capsys):
