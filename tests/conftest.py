@@ -21,7 +21,6 @@ def key():
     return jr.key(0)
 
 
-
 # Scheduling for `pytest -n 2`. Nearly all of the suite's time is XLA compilation, and a
 # worker compiles a program once, so the work is handed out by test module: tests of one
 # module (sharing fixtures, closed loops and horizons) run on one worker and compile their

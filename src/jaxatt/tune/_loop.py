@@ -85,11 +85,6 @@ def tune(
     - `inputs`: the training batch (e.g. stacked initial states), fixed for the whole run.
     - `steps`: total number of optimizer steps (a resumed run continues up to it).
     - `optimizer`: an optax transformation; default `optax.adam(0.05)`.
-
-    The optimizer and the parameters' `where` selectors are static arguments of the compiled
-    step, compared by identity (they are functions). Reuse the same objects across runs (or
-    module-level functions as selectors) and the runs share one compiled step; a fresh
-    `optax.adam(...)` or lambda per run compiles the step again.
     - `checkpoint`: file for `eqx.tree_serialise_leaves` checkpoints, written every
       `checkpoint_every` steps, at the end, and when interrupted (Ctrl-C).
     - `resume`: continue from `checkpoint` if it exists. A resumed run ends bit-identical to
@@ -101,6 +96,11 @@ def tune(
 
     The configuration is validated before anything is compiled: parameter selectors, initial
     values inside their transforms' ranges, a non-empty batch, `steps > 0`.
+
+    The optimizer and the parameters' `where` selectors are static arguments of the compiled
+    step, compared by identity (they are functions). Reuse the same objects across runs (or
+    module-level functions as selectors) and the runs share one compiled step; a fresh
+    `optax.adam(...)` or lambda per run compiles the step again.
     """
     from tqdm import tqdm
 
