@@ -15,11 +15,12 @@ the rest, so it is the same program the `eqx.filter_jit` functions below compile
 - `vmap(simulate), batch B` for each B in `--batches`: the same under `jax.vmap`;
 - `monte_carlo, batch B`: `jaxatt.montecarlo.monte_carlo(loop, x0s, 0, T, dt=dt,
   save_every=steps/10)` (default metrics, no trajectories kept);
-- `tune step`: `jaxatt.tune._loop._step` (the `eqx.filter_jit` step `jaxatt.tune.tune` calls:
-  `value_and_grad` of the objective plus the optax update) for `chen2022_tuning.parameters()`
+- `tune step`: `jaxatt.tune._loop._loss_and_grad` (the `eqx.filter_jit` program behind
+  `jaxatt.tune.loss_and_grad`, which every `jaxatt.tune.tune` step runs: `value_and_grad` of the
+  objective; the optax update is a separate, small program) for `chen2022_tuning.parameters()`
   (five gains), `chen2022_tuning.objective(dt, horizon)` (differentiable settling time plus the
-  chattering penalty; the scenario tunes with dt = 5e-3 s over 10 s), `optax.adam(0.1)` and
-  `--tune-batch` initial states.
+  chattering penalty; the scenario tunes with dt = 5e-3 s over 10 s) and `--tune-batch`
+  initial states.
 
 **Recompilations.** With `jax_log_compiles` on, a logging handler counts JAX's
 "Finished tracing ..." and "Finished XLA compilation of jit(NAME) ..." records per function
@@ -34,8 +35,8 @@ compilation of the function is a recompilation, and the check fails. Entry point
   loop as an argument (counted: `run`), batch `--check-batch`;
 - `jaxatt.montecarlo.monte_carlo(loop_k, x0s, ...)` called directly (counted: `_run`);
 - `jaxatt.tune.tune(..., steps=variants + 1)` after `jax.clear_caches()`: every step changes the
-  unconstrained gains (counted: `_step`; exactly one compilation expected);
-- `_step` called directly with `variants` templates whose gains differ (same optimizer,
+  unconstrained gains (counted: `_loss_and_grad`; exactly one compilation expected);
+- `_loss_and_grad` called directly with `variants` templates whose gains differ (same
   parameters and objective objects as `tune` used: zero new compilations expected).
 
 Reported, not checked: the same direct `simulate` calls with *strongly typed* gains
@@ -274,7 +275,7 @@ def main(args) -> int:
     from jaxatt.montecarlo import monte_carlo
     from jaxatt.scenarios import chen2022_tuning
     from jaxatt.simulation import simulate
-    from jaxatt.tune._loop import _step
+    from jaxatt.tune._loop import _loss_and_grad
 
     meta = common.machine_meta()
     common.print_meta(
@@ -325,9 +326,9 @@ def main(args) -> int:
     objective = chen2022_tuning.objective(dt=args.tune_dt, horizon=args.tune_horizon)
     inputs = common.take(pool, args.tune_batch)
     u0 = tune.initial_unconstrained(loop, parameters)
-    step_args = (u0, optimizer.init(u0), loop, parameters, objective, inputs, optimizer)
+    step_args = (u0, loop, parameters, objective, inputs)
     if not args.no_tune:
-        record("tune step (_step)", _step, step_args)
+        record("tune step (loss_and_grad)", _loss_and_grad, step_args)
 
     # 2. Recompilations.
     checks = []
@@ -389,28 +390,26 @@ def main(args) -> int:
                 progress=False,
             )
             wall = time.perf_counter() - start
-            compiles = log.count("compile", "_step", mark)
+            compiles = log.count("compile", "_loss_and_grad", mark)
             checks.append(
                 {
                     "entry": f"jaxatt.tune.tune(steps={args.variants + 1})",
-                    "function": "_step",
+                    "function": "_loss_and_grad",
                     "steps": args.variants + 1,
                     "wall_s": wall,
                     "first_call_compiles": min(compiles, 1),
                     "recompiles": max(compiles - 1, 0),
-                    "retraces": max(log.count("trace", "_step", mark) - 1, 0),
+                    "retraces": max(log.count("trace", "_loss_and_grad", mark) - 1, 0),
                     "losses": [float(v) for v in result.losses],
                 }
             )
             calls = [
-                lambda m=m: _step(
-                    u0, optimizer.init(u0), m, parameters, objective, inputs, optimizer
-                )
+                lambda m=m: _loss_and_grad(u0, m, parameters, objective, inputs)
                 for m in variants
             ]
-            calls.insert(0, lambda: _step(*step_args))
-            entry = "_step(..., template_k, ...) directly, after tune"
-            checks.append({"entry": entry, **count_recompiles(log, "_step", calls)})
+            calls.insert(0, lambda: _loss_and_grad(*step_args))
+            entry = "_loss_and_grad(u0, template_k, ...) directly, after tune"
+            checks.append({"entry": entry, **count_recompiles(log, "_loss_and_grad", calls)})
         informational = {
             "entry": "simulate(loop_k, x0, ...) with strongly typed gains",
             **count_recompiles(log, "_simulate", [direct(m) for m in [loop, *strong]]),

@@ -37,19 +37,39 @@ def test_nearest_odd_ratio():
         tune.nearest_odd_ratio(-1.0)
 
 
-def _small_problem(n=3, horizon=2.0, dt=1e-2):
+def _rho(m):
+    return m.controller.reaching_law.rho
+
+
+def _slope(m):
+    return m.controller.surface.slope
+
+
+def _alpha(m):
+    return m.controller.reaching_law.alpha
+
+
+def _beta(m):
+    return m.controller.reaching_law.beta
+
+
+# Module-level selectors: every test's parameters are equal static arguments, so the tests that
+# tune or differentiate the small problem share one compiled loss and gradient.
+PARAMETERS = {
+    "rho": tune.Parameter(_rho, tune.Positive()),
+    "lambda": tune.Parameter(_slope, tune.Positive()),
+    "alpha": tune.Parameter(_alpha, tune.Interval(0, 1)),
+    "beta": tune.Parameter(_beta, tune.GreaterThan(1.0)),
+}
+
+
+def _small_problem(n=2, horizon=1.0, dt=2e-2):
     loop = chen.build("M1")
     q = jnp.array([[0.9, 0.3, -0.2, -0.25], [0.95, -0.1, 0.2, 0.2], [0.8, 0.4, 0.4, -0.2]])[:n]
     q = q / jnp.linalg.norm(q, axis=1, keepdims=True)
     x0s = QuaternionState(q, jnp.zeros((n, 3)))
-    params = {
-        "rho": tune.Parameter(lambda m: m.controller.reaching_law.rho, tune.Positive()),
-        "lambda": tune.Parameter(lambda m: m.controller.surface.slope, tune.Positive()),
-        "alpha": tune.Parameter(lambda m: m.controller.reaching_law.alpha, tune.Interval(0, 1)),
-        "beta": tune.Parameter(lambda m: m.controller.reaching_law.beta, tune.GreaterThan(1.0)),
-    }
     objective = tune.SettlingObjective(t1=horizon, dt=dt, tolerance=1e-2)
-    return loop, x0s, params, objective
+    return loop, x0s, dict(PARAMETERS), objective
 
 
 def test_applied_gains_keep_the_template_types_so_nothing_recompiles():
@@ -67,24 +87,25 @@ def test_applied_gains_keep_the_template_types_so_nothing_recompiles():
 
 
 def test_tuning_gradient_matches_central_differences():
-    """d(objective)/d(unconstrained) by reverse mode against central differences of the same
-    objective (2 samples, 1.5 s, dt 1.5e-2). Both sides differentiate the same discrete map, so
-    they agree to rounding unless a perturbation of 1e-6 moves a solver stage across a switch
-    (|s| = 1, a saturation corner); 1e-4 relative leaves room for FD rounding (~1e-8)."""
-    loop, x0s, params, objective = _small_problem(n=2, horizon=1.5, dt=1.5e-2)
-
-    @eqx.filter_jit
-    def loss(u):
-        return objective(tune.apply(loop, params, u), x0s)[0]
-
+    """`tune.loss_and_grad` (the program every tuning step runs) against central differences
+    of `tune.evaluate` (2 samples, 1 s, dt 2e-2). Both sides differentiate the same discrete
+    map, so they agree to rounding unless a perturbation of 1e-6 moves a solver stage across a
+    switch (|s| = 1, a saturation corner); measured within 2e-7 relative, and 1e-4 leaves room
+    for FD rounding (~1e-8)."""
+    loop, x0s, params, objective = _small_problem()
     u0 = tune.initial_unconstrained(loop, params)
-    grads = jax.grad(loss)(u0)
+    (loss, _), grads = tune.loss_and_grad(u0, loop, params, objective, x0s)
+    np.testing.assert_allclose(loss, tune.evaluate(loop, objective, x0s)[0], rtol=1e-12)
+
+    def loss_at(u):
+        return float(tune.evaluate(tune.apply(loop, params, u), objective, x0s)[0])
+
     for name in params:
         h = 1e-6
-        plus = dict(u0, **{name: u0[name] + h})
-        minus = dict(u0, **{name: u0[name] - h})
-        numeric = float(loss(plus) - loss(minus)) / (2 * h)
+        plus, minus = (dict(u0, **{name: u0[name] + d}) for d in (h, -h))
+        numeric = (loss_at(plus) - loss_at(minus)) / (2 * h)
         assert np.isfinite(float(grads[name]))
+        assert abs(numeric) > 1e-4, name  # every parameter moves the loss here
         assert abs(float(grads[name]) - numeric) <= 1e-4 * abs(numeric) + 1e-8, (
             name,
             grads[name],
@@ -93,11 +114,12 @@ def test_tuning_gradient_matches_central_differences():
 
 
 def test_interrupted_run_resumes_bit_identically(tmp_path):
-    from jaxatt.tune._loop import _step
+    from jaxatt.tune._loop import _loss_and_grad
 
-    loop, x0s, params, objective = _small_problem(n=2, horizon=1.0, dt=2e-2)
+    loop, x0s, params, objective = _small_problem()
     optimizer = optax.adam(0.1)
-    compiled_before = _step._cached._cache_size()
+    tune.loss_and_grad(tune.initial_unconstrained(loop, params), loop, params, objective, x0s)
+    compiled_before = _loss_and_grad._cached._cache_size()
     full = tune.tune(loop, params, objective, x0s, steps=4, optimizer=optimizer, progress=False)
 
     path = tmp_path / "run.eqx"
@@ -143,8 +165,9 @@ def test_interrupted_run_resumes_bit_identically(tmp_path):
     assert np.array_equal(longer.losses, full.losses)
     for name in params:
         assert np.array_equal(longer.gains[name], full.gains[name]), name
-    # One compilation served all these runs (every step of each, before and after resuming).
-    assert _step._cached._cache_size() - compiled_before == 1
+    # Every step of every run, before and after resuming, ran the program compiled for the
+    # `tune.loss_and_grad` call above: nothing compiled again.
+    assert _loss_and_grad._cached._cache_size() == compiled_before
     with pytest.raises(ValueError, match="4 steps done, more than steps=2"):
         tune.tune(loop, params, objective, x0s, steps=2, resume=True, **common)
     with pytest.raises(ValueError, match="does not belong to this tuning problem"):
@@ -177,12 +200,12 @@ def test_interrupted_run_resumes_bit_identically(tmp_path):
     ],
 )
 def test_bad_tuning_configuration_fails_before_compiling(change, needle):
-    from jaxatt.tune._loop import _step
+    from jaxatt.tune._loop import _loss_and_grad, _update
 
-    loop, x0s, params, objective = _small_problem(n=2)
+    loop, x0s, params, objective = _small_problem()
     args = dict(parameters=params, inputs=x0s, steps=2, resume=False)
     args.update(change)
-    before = _step._cached._cache_size()
+    before = _loss_and_grad._cached._cache_size(), _update._cached._cache_size()
     with pytest.raises(ValueError) as info:
         tune.tune(
             loop,
@@ -194,7 +217,8 @@ def test_bad_tuning_configuration_fails_before_compiling(change, needle):
             progress=False,
         )
     assert needle in str(info.value)
-    assert _step._cached._cache_size() == before  # nothing was compiled
+    after = _loss_and_grad._cached._cache_size(), _update._cached._cache_size()
+    assert after == before  # nothing was compiled
 
 
 def test_aggregates():

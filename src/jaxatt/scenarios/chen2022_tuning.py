@@ -69,7 +69,7 @@ def parameters() -> dict[str, tuning.Parameter]:
     """The tuned gains of M1 and their transforms.
 
     Every call returns equal parameters (the same selector functions), so runs that build
-    them afresh still share one compiled tuning step.
+    them afresh still share one compiled loss and gradient (`tune.loss_and_grad`).
     """
     return {
         "rho": tuning.Parameter(_rho, tuning.Positive()),
@@ -84,10 +84,10 @@ def parameters() -> dict[str, tuning.Parameter]:
 def optimizer() -> optax.GradientTransformation:
     """`optax.chain(optax.clip_by_global_norm(1.0), optax.adam(0.1))`, one shared object.
 
-    The transformation is a static argument of the jitted tuning step, compared by identity
-    (optax transformations are closures), so every call returns the same object: two `tune`
-    runs with `optimizer()` share one compiled step instead of compiling it twice (15 s each
-    on a 2-core CPU). The object holds no state; each run keeps its own optimizer state.
+    The transformation is a static argument of the jitted optimizer update, compared by
+    identity (optax transformations are closures), so every call returns the same object: two
+    `tune` runs with `optimizer()` share one compiled update. The object holds no state; each
+    run keeps its own optimizer state.
 
     The chattering penalty is quadratic: where a step enters a chattering regime its gradient
     is orders of magnitude larger than elsewhere. Unclipped, one such gradient inflated Adam's

@@ -17,7 +17,12 @@ from ._checkpoint import (
     load_checkpoint as load_checkpoint,
     save_checkpoint as save_checkpoint,
 )
-from ._loop import TuneResult as TuneResult, evaluate as evaluate, tune as tune
+from ._loop import (
+    TuneResult as TuneResult,
+    evaluate as evaluate,
+    loss_and_grad as loss_and_grad,
+    tune as tune,
+)
 from ._objective import (
     AbstractAggregate as AbstractAggregate,
     CVaR as CVaR,

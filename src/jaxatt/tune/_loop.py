@@ -1,4 +1,5 @@
-"""The optax tuning loop: one compiled step, a Python loop with progress, checkpoints, resume."""
+"""The optax tuning loop: a compiled loss-and-gradient and update, a Python loop with progress,
+checkpoints, resume."""
 
 import dataclasses
 import os
@@ -34,17 +35,41 @@ class TuneResult:
 
 
 _DEFAULT_OPTIMIZER = optax.adam(0.05)
-"""One object, so that runs with the default optimizer share their compiled step."""
+"""One object, so that runs with the default optimizer share their compiled update."""
+
+
+def loss_and_grad(
+    unconstrained: Mapping[str, Array],
+    template: PyTree,
+    parameters: Mapping,
+    objective: Callable,
+    inputs: PyTree,
+) -> tuple[tuple[Array, dict[str, Array]], dict[str, Array]]:
+    """The loss, its aux and its gradient with respect to the unconstrained parameters:
+    `((loss, aux), grads)` for `objective(apply(template, parameters, unconstrained), inputs)`.
+
+    This is the compiled program every [`tune`][] step runs (the optimizer update is a separate,
+    small one), so checking its gradient, e.g. against finite differences of
+    [`evaluate`][], checks what tuning follows, and calling it before `tune` with the same
+    arguments compiles the step once for both (see `tune` on static arguments).
+    """
+    check_parameters(template, parameters)
+    _check_inputs(inputs)
+    return _loss_and_grad(dict(unconstrained), template, parameters, objective, inputs)
 
 
 @eqx.filter_jit
-def _step(unconstrained, opt_state, template, parameters, objective, inputs, optimizer):
+def _loss_and_grad(unconstrained, template, parameters, objective, inputs):
     def loss_fn(u):
         return objective(apply(template, parameters, u), inputs)
 
-    (loss, aux), grads = eqx.filter_value_and_grad(loss_fn, has_aux=True)(unconstrained)
+    return eqx.filter_value_and_grad(loss_fn, has_aux=True)(unconstrained)
+
+
+@eqx.filter_jit
+def _update(unconstrained, opt_state, grads, optimizer):
     updates, opt_state = optimizer.update(grads, opt_state, unconstrained)
-    return optax.apply_updates(unconstrained, updates), opt_state, loss, aux
+    return optax.apply_updates(unconstrained, updates), opt_state
 
 
 def _check_inputs(inputs) -> None:
@@ -97,10 +122,12 @@ def tune(
     The configuration is validated before anything is compiled: parameter selectors, initial
     values inside their transforms' ranges, a non-empty batch, `steps > 0`.
 
-    The optimizer and the parameters' `where` selectors are static arguments of the compiled
-    step, compared by identity (they are functions). Reuse the same objects across runs (or
-    module-level functions as selectors) and the runs share one compiled step; a fresh
-    `optax.adam(...)` or lambda per run compiles the step again.
+    Each step runs two compiled programs: [`loss_and_grad`][] (the closed loop and its reverse
+    pass, nearly all the compile time) and the optimizer update (small). The parameters'
+    `where` selectors are static arguments of the first, and the optimizer of the second,
+    compared by identity (they are functions). Reuse the same objects across runs (or
+    module-level functions as selectors) and the runs share the compiled programs; a lambda
+    per run compiles the gradient again, a fresh `optax.adam(...)` the update.
     """
     from tqdm import tqdm
 
@@ -140,15 +167,10 @@ def tune(
     bar = tqdm(total=steps, initial=start, desc="tune", disable=not progress)
     try:
         for k in range(start, steps):
-            u, opt_state, loss, aux = _step(
-                state.unconstrained,
-                state.opt_state,
-                template,
-                parameters,
-                objective,
-                inputs,
-                optimizer,
+            (loss, aux), grads = _loss_and_grad(
+                state.unconstrained, template, parameters, objective, inputs
             )
+            u, opt_state = _update(state.unconstrained, state.opt_state, grads, optimizer)
             state = TuneState(
                 step=jnp.array(k + 1),
                 unconstrained=u,
