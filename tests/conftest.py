@@ -57,6 +57,9 @@ def key():
 # `xdist_group` markers are silently ignored, because node ids can no longer be rewritten.)
 SPREAD_MODULES = ("tests/test_notebooks.py",)
 FIRST_MODULES = ("tests/test_notebooks.py", "tests/test_cli.py")  # longest first
+# Modules that compile the same programs as another module join its unit: the Chen tests
+# simulate the short reproduction that `jaxatt demo --short` runs (2 programs, 10 s).
+JOIN_UNIT_OF = {"tests/scenarios/test_chen2022.py": "tests/test_cli.py"}
 
 
 def pytest_collection_modifyitems(config, items):
@@ -73,11 +76,12 @@ def pytest_xdist_make_scheduler(config, log):
     from xdist.scheduler import LoadScopeScheduling
 
     class ByModule(LoadScopeScheduling):
-        """Each module is one unit of work, except `SPREAD_MODULES` (one unit per test)."""
+        """Each module is one unit of work, except `SPREAD_MODULES` (one unit per test) and
+        `JOIN_UNIT_OF` (in another module's unit)."""
 
         def _split_scope(self, nodeid: str) -> str:
             module = nodeid.split("::")[0]
-            return nodeid if module in SPREAD_MODULES else module
+            return nodeid if module in SPREAD_MODULES else JOIN_UNIT_OF.get(module, module)
 
     config.option.loadscopereorder = False  # hand units out in collection order (see above)
     return ByModule(config, log)
