@@ -15,6 +15,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 
 FLAG = "xla_cpu_use_fusion_emitters"
@@ -82,6 +83,10 @@ def _in_a_child(flags: str) -> dict:
         text=True,
         timeout=600,
     )
+    if done.returncode != 0 and f"Unknown flag in XLA_FLAGS: --{FLAG}" in done.stderr:
+        # A jaxlib without the LLVM IR emitters: conftest found the same and the suite runs
+        # with XLA's defaults, so there is no second code generator to compare.
+        pytest.skip(f"this jaxlib does not know --{FLAG}")
     assert done.returncode == 0, done.stderr[-3000:]
     return json.loads(done.stdout.strip().splitlines()[-1])
 

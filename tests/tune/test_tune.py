@@ -9,7 +9,7 @@ import pytest
 
 from jaxatt import tune
 from jaxatt.plants import QuaternionState
-from jaxatt.scenarios import chen2022_two_phase_power as chen
+from jaxatt.scenarios import chen2022_tuning, chen2022_two_phase_power as chen
 
 
 @pytest.mark.parametrize(
@@ -37,30 +37,10 @@ def test_nearest_odd_ratio():
         tune.nearest_odd_ratio(-1.0)
 
 
-def _rho(m):
-    return m.controller.reaching_law.rho
-
-
-def _slope(m):
-    return m.controller.surface.slope
-
-
-def _alpha(m):
-    return m.controller.reaching_law.alpha
-
-
-def _beta(m):
-    return m.controller.reaching_law.beta
-
-
-# Module-level selectors: every test's parameters are equal static arguments, so the tests that
-# tune or differentiate the small problem share one compiled loss and gradient.
-PARAMETERS = {
-    "rho": tune.Parameter(_rho, tune.Positive()),
-    "lambda": tune.Parameter(_slope, tune.Positive()),
-    "alpha": tune.Parameter(_alpha, tune.Interval(0, 1)),
-    "beta": tune.Parameter(_beta, tune.GreaterThan(1.0)),
-}
+# Four of the Chen tuning problem's parameters (its module-level selectors): every test's
+# parameters are equal static arguments, so the tests that tune or differentiate the small
+# problem share one compiled loss and gradient.
+PARAMETERS = {k: v for k, v in chen2022_tuning.parameters().items() if k != "eta"}
 
 
 def _small_problem(n=2, horizon=1.0, dt=2e-2):
