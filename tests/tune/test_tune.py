@@ -212,11 +212,12 @@ def test_aggregates():
 
 
 def test_the_chen_tuning_configuration_is_one_static_argument_across_calls():
-    # `tune`'s compiled step takes the parameters (their `where` functions) and the optimizer
-    # as static arguments, compared by identity. Regression: the scenario built fresh lambdas
-    # and a fresh optax chain on every call, so `jaxatt demo` and `jaxatt tune` in one process
-    # (and the tuning notebook's second run) compiled the same 15 s step twice.
-    from jaxatt.scenarios import chen2022_tuning as problem
+    # `tune`'s compiled programs take the parameters (their `where` functions; the loss and
+    # gradient) and the optimizer (the update) as static arguments, compared by identity.
+    # Regression: the scenario built fresh lambdas and a fresh optax chain on every call, so
+    # `jaxatt demo` and `jaxatt tune` in one process (and the tuning notebook's second run)
+    # compiled the same 15 s step twice.
+    problem = chen2022_tuning
 
     def cache_key(optimizer):
         # What `eqx.filter_jit` keys its cache on: the non-array leaves and the tree structure.

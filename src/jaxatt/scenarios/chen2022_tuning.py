@@ -43,8 +43,8 @@ GRADIENT_CLIP = 1.0
 
 
 # Module-level selectors rather than lambdas: `Parameter.where` is a static field of the
-# jitted tuning step, compared by identity, so fresh lambdas on every `parameters()` call
-# would make every `tune` call recompile its step.
+# jitted loss and gradient (`tune.loss_and_grad`), compared by identity, so fresh lambdas on
+# every `parameters()` call would make every `tune` call compile it again.
 def _rho(loop):
     return loop.controller.reaching_law.rho
 
