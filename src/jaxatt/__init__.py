@@ -1,14 +1,18 @@
 """jaxatt: differentiable spacecraft attitude and relative-motion control in JAX.
 
 The top level exports the verbs and containers; components live in sub-packages:
-`jaxatt.numerics`, `jaxatt.rotations`, `jaxatt.plants`, `jaxatt.references`,
-`jaxatt.controllers`, `jaxatt.simulation` (closed loops, actuators, solvers),
-`jaxatt.metrics`, `jaxatt.scenarios`, `jaxatt.plot`.
+`jaxatt.numerics`, `jaxatt.rotations`, `jaxatt.signals`, `jaxatt.references`,
+`jaxatt.plants`, `jaxatt.sliding`, `jaxatt.reaching`, `jaxatt.controllers`,
+`jaxatt.observers`, `jaxatt.simulation` (the closed-loop contract, actuators, solvers),
+`jaxatt.metrics`, `jaxatt.montecarlo`. `jaxatt.tune` (optax), `jaxatt.plot` (matplotlib) and
+the applications in `jaxatt.scenarios` load on first use: `import jaxatt` imports the core
+only.
 
 jaxatt never changes JAX's configuration: enable float64 yourself, first, when you need it
 (`jax.config.update("jax_enable_x64", True)`), as the CLI, notebooks and tests do.
 """
 
+import importlib
 import importlib.metadata
 
 from . import (
@@ -16,26 +20,33 @@ from . import (
     metrics as metrics,
     montecarlo as montecarlo,
     numerics as numerics,
+    observers as observers,
     plants as plants,
+    reaching as reaching,
     references as references,
     rotations as rotations,
-    scenarios as scenarios,
+    signals as signals,
     simulation as simulation,
+    sliding as sliding,
 )
 from .simulation import (
-    RESULTS as RESULTS,
+    AbstractClosedLoop as AbstractClosedLoop,
     ClosedLoop as ClosedLoop,
+    SimulationFailed as SimulationFailed,
+    Status as Status,
     Trajectory as Trajectory,
     simulate as simulate,
 )
 
 
-def __getattr__(name: str):
-    # `jaxatt.plot` imports matplotlib, so it loads on first use rather than with `jaxatt`.
-    if name == "plot":
-        import importlib
+_LAZY = ("plot", "scenarios", "tune")
 
-        return importlib.import_module(".plot", __name__)
+
+def __getattr__(name: str):
+    # These load on first use: `plot` imports matplotlib, `tune` optax, `scenarios` every
+    # application.
+    if name in _LAZY:
+        return importlib.import_module(f".{name}", __name__)
     raise AttributeError(f"module 'jaxatt' has no attribute {name!r}")
 
 

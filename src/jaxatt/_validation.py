@@ -1,112 +1,168 @@
 """Argument checks shared by every constructor.
 
-Each helper converts its argument to a JAX array and checks a rule. When the value is
-concrete (built eagerly, the usual case) a violated rule raises a `ValueError` that names the
-owner, the argument, the value and the rule. When the value is a tracer (the module is being
-built inside `jit`/`vmap`/`grad`) the rule cannot be decided at trace time, so the check is
-attached to the value with `eqx.error_if` and fires at run time instead.
+Each helper converts its argument to a JAX array and checks a rule.
+
+- **Concrete values** (the usual case: a module built eagerly) are checked on the host with
+  NumPy, so a check compiles nothing. A violated rule raises a `ValueError` that names the
+  owner, the argument, the value and the rule.
+- **Traced values** (a module built inside `jit`/`vmap`/`grad`) cannot be decided at trace
+  time, so the check is attached to the value with `eqx.error_if` and fires at run time.
+
+Every result is a *strongly typed* floating array: a Python float becomes an array of JAX's
+default float dtype (float64 when x64 is enabled), never a weakly typed one. Tuning writes
+strongly typed gains back into modules, so a template built from Python floats and its tuned
+copies share their compiled programs.
 """
 
 from collections.abc import Callable
+from types import ModuleType
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, ArrayLike, Bool
+from jaxtyping import Array, ArrayLike
 
 
-def _is_traced(x) -> bool:
+Predicate = Callable[[ModuleType, Array], ArrayLike]
+"""`predicate(xp, x)` returns booleans that must all hold; `xp` is `numpy` for concrete
+values and `jax.numpy` for traced ones, so one predicate serves both."""
+
+
+def is_traced(x) -> bool:
+    """Whether `x` is a JAX tracer (its value is unknown at trace time)."""
     return isinstance(x, jax.core.Tracer)
 
 
-def _describe(x) -> str:
+def describe(x) -> str:
+    """A short printable form of a value, for error messages."""
     arr = np.asarray(x)
     if arr.ndim == 0:
         return f"{arr.item()!r}"
-    return np.array2string(arr, precision=6, separator=", ")
+    return np.array2string(arr, precision=6, separator=", ", threshold=20)
 
 
-def _as_float_array(x: ArrayLike, name: str, where: str) -> Array:
-    if isinstance(x, (str, bytes)) or x is None:
+def as_float_array(x: ArrayLike, name: str, where: str) -> Array:
+    """A strongly typed floating JAX array (integers and bools become the default float)."""
+    if isinstance(x, (str, bytes)) or x is None or isinstance(x, eqx.Module):
         raise ValueError(f"{where}: `{name}` must be a number or an array, got {x!r}.")
-    arr = jnp.asarray(x)
-    if not jnp.issubdtype(arr.dtype, jnp.floating):
-        arr = arr.astype(jnp.result_type(float))
-    return arr
+    if is_traced(x):
+        dtype = x.dtype if jnp.issubdtype(x.dtype, jnp.floating) else jnp.result_type(float)
+        return jnp.asarray(x, dtype=dtype)
+    try:
+        host = np.asarray(x)
+    except (TypeError, ValueError):
+        raise ValueError(f"{where}: `{name}` must be a number or an array, got {x!r}.") from None
+    if host.dtype == object:
+        raise ValueError(f"{where}: `{name}` must be a number or an array, got {x!r}.")
+    if isinstance(x, jax.Array) and jnp.issubdtype(x.dtype, jnp.floating):
+        return jnp.asarray(x, dtype=x.dtype)  # keeps float32 arrays float32, drops weak type
+    if np.issubdtype(host.dtype, np.floating) and not isinstance(x, (float, int)):
+        return jnp.asarray(host, dtype=jnp.dtype(host.dtype) if _x64() else None)
+    return jnp.asarray(host, dtype=jnp.result_type(float))
+
+
+def _x64() -> bool:
+    return bool(jax.config.read("jax_enable_x64"))
 
 
 def check(
     where: str,
     name: str,
     value: ArrayLike,
-    predicate: Callable[[Array], Bool[Array, "..."]],
+    predicate: Predicate,
     rule: str,
 ) -> Array:
-    """Check `predicate(value)` elementwise; raise (concrete) or attach an `error_if` (traced).
+    """Check `predicate(xp, value)` elementwise; raise (concrete) or attach an `error_if` (traced).
 
     **Arguments:**
     - `where`: the owner, e.g. the class name, used as the message prefix.
     - `name`: the argument's name as the user wrote it.
-    - `value`: the value; converted to a floating JAX array.
-    - `predicate`: maps the array to booleans that must all hold.
+    - `value`: the value; converted to a strongly typed floating JAX array.
+    - `predicate`: `(xp, x) -> booleans` that must all hold (see [`Predicate`][]).
     - `rule`: the rule in words, e.g. "must be positive".
 
     **Returns:** the value as a floating JAX array.
     """
-    arr = _as_float_array(value, name, where)
-    ok = predicate(arr)
+    arr = as_float_array(value, name, where)
     message = f"{where}: `{name}` {rule}"
-    if _is_traced(arr) or _is_traced(ok):
-        return eqx.error_if(arr, ~jnp.all(ok), message + ".")
-    if not bool(jnp.all(ok)):
-        raise ValueError(f"{message}, got {name}={_describe(arr)}.")
+    if is_traced(arr):
+        ok = jnp.all(jnp.asarray(predicate(jnp, arr)))
+        return eqx.error_if(arr, ~ok, message + ".")
+    host = np.asarray(arr)
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        ok = bool(np.all(predicate(np, host)))
+    if not ok:
+        raise ValueError(f"{message}, got {name}={describe(host)}.")
     return arr
 
 
 def check_finite(where: str, name: str, value: ArrayLike) -> Array:
-    return check(where, name, value, jnp.isfinite, "must be finite")
+    return check(where, name, value, lambda xp, x: xp.isfinite(x), "must be finite")
 
 
 def check_positive(where: str, name: str, value: ArrayLike) -> Array:
-    return check(where, name, value, lambda x: jnp.isfinite(x) & (x > 0), "must be positive")
+    return check(
+        where, name, value, lambda xp, x: xp.isfinite(x) & (x > 0), "must be positive"
+    )
 
 
 def check_nonnegative(where: str, name: str, value: ArrayLike) -> Array:
-    return check(where, name, value, lambda x: jnp.isfinite(x) & (x >= 0), "must be non-negative")
+    return check(
+        where, name, value, lambda xp, x: xp.isfinite(x) & (x >= 0), "must be non-negative"
+    )
 
 
 def check_in_open_interval(
     where: str, name: str, value: ArrayLike, low: float, high: float
 ) -> Array:
     return check(
-        where, name, value, lambda x: (x > low) & (x < high), f"must lie in ({low}, {high})"
+        where, name, value, lambda xp, x: (x > low) & (x < high), f"must lie in ({low}, {high})"
     )
 
 
 def check_greater_than(where: str, name: str, value: ArrayLike, low: float) -> Array:
     return check(
-        where, name, value, lambda x: jnp.isfinite(x) & (x > low), f"must be greater than {low}"
+        where,
+        name,
+        value,
+        lambda xp, x: xp.isfinite(x) & (x > low),
+        f"must be greater than {low}",
     )
 
 
 def check_shape(where: str, name: str, value: ArrayLike, shape: tuple[int, ...]) -> Array:
     """Convert to a floating array and require an exact shape (always decidable at trace time)."""
-    arr = _as_float_array(value, name, where)
+    arr = as_float_array(value, name, where)
     if arr.shape != shape:
         raise ValueError(f"{where}: `{name}` must have shape {shape}, got shape {arr.shape}.")
     return arr
 
 
+def check_gain_shape(
+    where: str, name: str, value: Array, shapes: tuple[tuple[int, ...], ...] = ((), (3,))
+) -> Array:
+    """Require one of the allowed `shapes` (default: a scalar or one value per axis)."""
+    if value.shape not in shapes:
+        allowed = " or ".join("a scalar" if s == () else f"shape {s}" for s in shapes)
+        raise ValueError(
+            f"{where}: `{name}` must be {allowed}, got shape {value.shape} "
+            f"({name}={describe(value) if not is_traced(value) else 'traced'})."
+        )
+    return value
+
+
 def check_spd(where: str, name: str, value: ArrayLike) -> Array:
     """A symmetric positive-definite 3x3 matrix (an inertia)."""
     arr = check_shape(where, name, value, (3, 3))
-    sym_tol = 1e-9 * (1.0 + jnp.max(jnp.abs(arr)))
 
-    def predicate(m):
-        symmetric = jnp.max(jnp.abs(m - m.T)) <= sym_tol
-        min_eig = jnp.linalg.eigvalsh(0.5 * (m + m.T))[0]
-        return symmetric & (min_eig > 0) & jnp.all(jnp.isfinite(m))
+    def predicate(xp, m):
+        finite = xp.all(xp.isfinite(m))
+        m = xp.where(finite, m, 0.0)
+        scale = 1.0 + xp.max(xp.abs(m))
+        symmetric = xp.max(xp.abs(m - m.T)) <= 1e-9 * scale
+        min_eig = xp.linalg.eigvalsh(0.5 * (m + m.T))[0]
+        return finite & symmetric & (min_eig > 0)
 
     return check(where, name, arr, predicate, "must be a symmetric positive-definite matrix")
 
@@ -123,6 +179,70 @@ def check_unit_quaternion(
         where,
         name,
         arr,
-        lambda q: jnp.abs(jnp.sqrt(jnp.sum(q**2)) - 1) <= tol,
+        lambda xp, q: xp.abs(xp.sqrt(xp.sum(q**2)) - 1) <= tol,
         f"must be a unit quaternion (| ||q|| - 1 | <= {tol:g}); normalize it first",
     )
+
+
+def check_tree_finite(where: str, name: str, tree) -> None:
+    """Raise if a concrete pytree holds a NaN or infinite entry, naming the leaf's path.
+
+    Traced leaves are skipped (their values are unknown until run time).
+    """
+    for path, leaf in jax.tree_util.tree_leaves_with_path(tree):
+        if is_traced(leaf) or not hasattr(leaf, "dtype"):
+            continue
+        host = np.asarray(leaf)
+        if not np.issubdtype(host.dtype, np.floating):
+            continue
+        bad = ~np.isfinite(host)
+        if np.any(bad):
+            label = name + jax.tree_util.keystr(path)
+            where_bad = np.argwhere(bad)[:5].tolist() if host.ndim else []
+            raise ValueError(
+                f"{where}: `{label}` must be finite, got {describe(host)}"
+                + (f" (non-finite at {where_bad})" if where_bad else "")
+                + "."
+            )
+
+
+def check_batched_shape(
+    where: str,
+    name: str,
+    value: ArrayLike,
+    shape: tuple[int, ...],
+    batch_shape: tuple[int, ...] = (),
+) -> Array:
+    """Convert to a floating array of shape `(*batch_shape, *shape)`."""
+    arr = as_float_array(value, name, where)
+    expected = (*batch_shape, *shape)
+    if arr.shape != expected:
+        what = f"shape {expected}" if not batch_shape else f"shape {expected} (batch first)"
+        raise ValueError(f"{where}: `{name}` must have {what}, got shape {arr.shape}.")
+    return arr
+
+
+def check_unit_quaternions(
+    where: str,
+    name: str,
+    value: ArrayLike,
+    batch_shape: tuple[int, ...] = (),
+    tol: float = UNIT_QUATERNION_TOLERANCE,
+) -> Array:
+    """Unit quaternions of shape `(*batch_shape, 4)`; a batch names its bad samples."""
+    if not batch_shape:
+        return check_unit_quaternion(where, name, value, tol)
+    arr = check_batched_shape(where, name, value, (4,), batch_shape)
+    rule = f"must hold unit quaternions (| ||q|| - 1 | <= {tol:g}); normalize them first"
+    if is_traced(arr):
+        norms = jnp.sqrt(jnp.sum(arr**2, axis=-1))
+        return eqx.error_if(arr, ~jnp.all(jnp.abs(norms - 1) <= tol), f"{where}: `{name}` {rule}.")
+    norms = np.linalg.norm(np.asarray(arr), axis=-1)
+    bad = np.argwhere(~(np.abs(norms - 1) <= tol))
+    if bad.size:
+        samples = [tuple(int(i) for i in b) if len(b) > 1 else int(b[0]) for b in bad[:10]]
+        raise ValueError(
+            f"{where}: `{name}` {rule}; samples {samples} are not (norms "
+            f"{[float(norms[tuple(b)]) for b in bad[:10]]})."
+        )
+    return arr

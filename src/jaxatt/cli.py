@@ -1,4 +1,4 @@
-"""Command-line front end: `jaxatt demo | list | reproduce NAME | tune NAME | bench`.
+"""Command-line front end: `jaxatt demo | list | reproduce NAME | tune NAME`.
 
 Enables float64 before anything else (reproductions run in double precision), then dispatches
 to library functions. No numerics here.
@@ -20,9 +20,8 @@ def _enable_x64() -> None:
 def _cmd_list(args: argparse.Namespace) -> int:
     from .scenarios import REGISTRY
 
-    for name, module in REGISTRY.items():
-        summary = (module.__doc__ or "").strip().splitlines()[0]
-        print(f"{name:24s} {summary}")
+    for name, scenario in REGISTRY.items():
+        print(f"{name:24s} {scenario.title}")
     return 0
 
 
@@ -50,7 +49,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    from . import demo
+    from .scenarios import demo
 
     out = pathlib.Path(args.out) if args.out else pathlib.Path("jaxatt-out") / "demo"
     start = time.perf_counter()
@@ -90,33 +89,13 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_bench(args: argparse.Namespace) -> int:
-    import jax
-
-    from . import bench
-
-    dtype = "float32" if args.float32 else "float64"
-    print(
-        f"[jaxatt] bench: Chen 2022 M1 Monte Carlo, {args.horizon} s of RK4 at dt 1e-3 s, "
-        f"{dtype}, on {jax.devices()[0].device_kind} ({len(jax.devices())} device(s))",
-        flush=True,
-    )
-    rows = bench.quick_table(batches=tuple(args.batches), horizon=args.horizon)
-    print(bench.format_table(rows))
-    print(
-        "st-st/s = state-steps per second (batch x RK4 steps / run time); scan = a minimal "
-        "hand-written lax.scan of the same equations; NumPy = vectorised RK4 (* scaled from "
-        "fewer steps); max |diff| = largest final-state difference to jaxatt."
-    )
-    if not all(row["passed"] for row in rows):
-        print("jaxatt: the implementations disagree beyond tolerance", file=sys.stderr)
-        return 1
-    return 0
-
-
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="jaxatt", description="Differentiable spacecraft attitude control in JAX."
+        prog="jaxatt",
+        description=(
+            "Differentiable spacecraft attitude control in JAX. Throughput benchmarks live in "
+            "the repository's benchmarks/ (python benchmarks/bench_quick.py)."
+        ),
     )
     sub = parser.add_subparsers(dest="command", required=True)
     demo = sub.add_parser(
@@ -142,18 +121,12 @@ def build_parser() -> argparse.ArgumentParser:
     tun.add_argument("--out", help="output folder (default ./jaxatt-out/tune-NAME)")
     tun.add_argument("--resume", action="store_true", help="continue from the checkpoint")
     tun.set_defaults(func=_cmd_tune)
-    ben = sub.add_parser("bench", help="quick throughput check against a hand scan and NumPy")
-    ben.add_argument("--batches", type=int, nargs="+", default=[1, 100, 1000])
-    ben.add_argument("--horizon", type=float, default=1.0, help="simulated time [s]")
-    ben.add_argument("--float32", action="store_true", help="run in float32 (default float64)")
-    ben.set_defaults(func=_cmd_bench)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    if not getattr(args, "float32", False):
-        _enable_x64()
+    _enable_x64()
     return args.func(args)
 
 

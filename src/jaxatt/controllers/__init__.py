@@ -7,10 +7,7 @@ from ._finite_time import (
     RateConstrainedFiniteTimeMRP as RateConstrainedFiniteTimeMRP,
     homogeneous_exponent as homogeneous_exponent,
 )
-from ._observer_compensated import (
-    ObserverCompensated as ObserverCompensated,
-    ObserverCompensatedState as ObserverCompensatedState,
-)
+from ._observer_compensated import ObserverCompensated as ObserverCompensated
 from ._open_loop import OpenLoop as OpenLoop
 from ._pd import MRPPD as MRPPD, QuaternionPD as QuaternionPD
 from ._robust import (

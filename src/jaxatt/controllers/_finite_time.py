@@ -34,13 +34,12 @@ case and `inertia` may be omitted.
 from typing import ClassVar
 
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
 from .._custom_types import MRP, Mat33, RealScalarLike, Scalar, Vec3
-from .._validation import check_in_open_interval, check_positive, check_spd
+from .._validation import check_gain_shape, check_in_open_interval, check_positive, check_spd
 from ..numerics import abs_pow, sig_pow
 from ..plants import MRPState
 from ..references import AttitudeReference
@@ -98,11 +97,7 @@ def _check_inertia(where: str, inertia) -> Mat33 | None:
 
 
 def _check_gain_shape(where: str, name: str, value: Array) -> Array:
-    if value.shape not in ((), (3,)):
-        raise ValueError(
-            f"{where}: `{name}` must be a scalar or have shape (3,), got shape {value.shape}."
-        )
-    return value
+    return check_gain_shape(where, name, value)
 
 
 class FiniteTimeMRP(AbstractController):
@@ -133,6 +128,7 @@ class FiniteTimeMRP(AbstractController):
     alpha1: Float[Array, ""]
     inertia: Mat33 | None
     measurement_type: ClassVar[type] = MRPState
+    reference_type: ClassVar[type] = AttitudeReference
 
     def __init__(
         self,
@@ -171,10 +167,6 @@ class FiniteTimeMRP(AbstractController):
         )
         return tau, None
 
-    def diagnostics(self, t, measurement, reference, state) -> dict:
-        del t, measurement, reference, state
-        return {}
-
 
 class RateBarrierState(eqx.Module):
     """`time_inside`: time [s] spent so far with $\\chi(v) < M^{1+\\alpha_2}$ (inside the
@@ -203,16 +195,17 @@ class RateConstrainedFiniteTimeMRP(AbstractController):
     has $\chi = 0.2598 > 0.4^{5/3} = 0.2172$, SPEC 004.2). The admissible set is therefore
     $\chi(v(0)) < M^{1+\alpha_2}$ (any attitude), and $|v_i| < M$ follows from it.
 
-    - [`init`][] checks it: with concrete values an inadmissible state raises `ValueError`
-      (stating the rule and the numbers) unless `allow_inadmissible=True`. Inside `simulate`
-      (always traced) and under `vmap` nothing is raised, so a Monte Carlo batch is never
-      aborted; instead the diagnostic `"violation"` is True at $t_0$ and `simulate` reports
-      `RESULTS.constraint_violated` (and raises with its default `throw=True`).
-    - `"violation"` (recorded at every saved time) is $\chi(v) \ge M^{1+\alpha_2}$: the state is
-      outside the barrier set. With `allow_inadmissible=True` the initial excursion of a
-      state that starts outside is accepted and only a crossing after the state has been
-      inside (`RateBarrierState.time_inside > 0`) is reported.
-    - Also recorded: `"barrier_ratio"` $\chi(v)/M^{1+\alpha_2}$ (< 1 inside) and
+    - [`check_initial`][] checks it: `simulate` calls it on the concrete initial state
+      before compiling anything, and an inadmissible state raises `ValueError` (stating the
+      rule, the barrier values and the opt-out) unless `allow_inadmissible=True`. Inside a
+      batch (`monte_carlo`, or your own `vmap`) nothing is raised, so a Monte Carlo study is
+      never aborted: the sample's status is `constraint_violated`, detected at its first
+      completed step.
+    - [`admissible`][] (checked after every completed step) is $\chi(v) < M^{1+\alpha_2}$.
+      With `allow_inadmissible=True` the initial excursion of a state that starts outside is
+      accepted and only a crossing after the state has been inside
+      (`RateBarrierState.time_inside > 0`) counts as a violation.
+    - Recorded signals: `"barrier_ratio"` $\chi(v)/M^{1+\alpha_2}$ (< 1 inside) and
       `"barrier_gain"`, the factor multiplying $k_2$.
 
     **Guard and step size.** The gain is singular on $\chi = M^{1+\alpha_2}$. Its denominator
@@ -255,6 +248,7 @@ class RateConstrainedFiniteTimeMRP(AbstractController):
     inertia: Mat33 | None
     allow_inadmissible: bool = eqx.field(static=True)
     measurement_type: ClassVar[type] = MRPState
+    reference_type: ClassVar[type] = AttitudeReference
 
     def __init__(
         self,
@@ -304,32 +298,40 @@ class RateConstrainedFiniteTimeMRP(AbstractController):
         gap = jnp.maximum(jnp.abs(level - self.chi(v)), self.guard * level)
         return level / gap
 
-    def admissible(self, measurement: MRPState, reference: AttitudeReference) -> Bool[Array, ""]:
+    def inside_barrier(
+        self, measurement: MRPState, reference: AttitudeReference
+    ) -> Bool[Array, ""]:
         """Whether `measurement` lies in the admissible set $\\chi(v) < M^{1+\\alpha_2}$."""
         return self.barrier_ratio(_errors(measurement, reference).v) < 1
 
     def init(
         self, t0: RealScalarLike, measurement: MRPState, reference: AttitudeReference
     ) -> RateBarrierState:
-        """Check admissibility (see the class docstring) and start `time_inside` at 0."""
+        """`time_inside` starts at 0 (admissibility is checked by [`check_initial`][])."""
         del t0
         v = _errors(measurement, reference).v
-        chi = self.chi(v)
-        level = self.barrier_level
-        concrete = not any(isinstance(x, jax.core.Tracer) for x in (chi, level))
-        if concrete and not self.allow_inadmissible and not bool(chi < level):
-            raise ValueError(
-                "RateConstrainedFiniteTimeMRP: the initial rate error v(0) = "
-                f"{np.array2string(np.asarray(v), precision=6, separator=', ')} rad/s is outside "
-                "the admissible set that Theorem 1's proof needs, chi(v) = sum_i "
-                "|v_i|^(1+alpha2) < M^(1+alpha2): got chi(v(0)) = "
-                f"{float(chi):.6g} >= M^(1+alpha2) = {float(level):.6g} (M = "
-                f"{float(self.rate_limit):.6g}, alpha2 = {float(self.alpha2):.6g}). |v_i(0)| < M "
-                "alone does not suffice. Start with a smaller rate, raise `rate_limit`, or pass "
-                "allow_inadmissible=True to simulate anyway (the rate bound is then not "
-                "guaranteed)."
-            )
         return RateBarrierState(time_inside=jnp.zeros((), dtype=jnp.result_type(v)))
+
+    def check_initial(self, t0: float, measurement: MRPState, reference: AttitudeReference) -> None:
+        """Raise `ValueError` if the concrete initial state is outside the admissible set
+        (and `allow_inadmissible` is False), with the barrier values and the opt-out."""
+        del t0
+        if self.allow_inadmissible:
+            return
+        v, chi, level = (np.asarray(x) for x in _initial_barrier(self, measurement, reference))
+        if chi < level:
+            return
+        raise ValueError(
+            "RateConstrainedFiniteTimeMRP: the initial rate error v(0) = "
+            f"{np.array2string(v, precision=6, separator=', ')} rad/s is outside "
+            "the admissible set that Theorem 1's proof needs, chi(v) = sum_i "
+            "|v_i|^(1+alpha2) < M^(1+alpha2): got chi(v(0)) = "
+            f"{float(chi):.6g} >= M^(1+alpha2) = {float(level):.6g} (barrier ratio "
+            f"{float(chi / level):.6g}; M = {float(self.rate_limit):.6g}, alpha2 = "
+            f"{float(self.alpha2):.6g}). |v_i(0)| < M alone does not suffice. Start with a "
+            "smaller rate, raise `rate_limit`, or pass allow_inadmissible=True to simulate "
+            "anyway (the rate bound is then not guaranteed)."
+        )
 
     def __call__(
         self,
@@ -350,23 +352,34 @@ class RateConstrainedFiniteTimeMRP(AbstractController):
         time_dot = jnp.where(inside, 1.0, 0.0).astype(state.time_inside.dtype)
         return tau, RateBarrierState(time_inside=time_dot)
 
-    def diagnostics(
+    def admissible(
+        self,
+        t: RealScalarLike,
+        measurement: MRPState,
+        reference: AttitudeReference,
+        state: RateBarrierState,
+    ) -> Bool[Array, ""]:
+        del t
+        outside = self.barrier_ratio(_errors(measurement, reference).v) >= 1
+        if self.allow_inadmissible:
+            return ~(outside & (state.time_inside > 0))
+        return ~outside
+
+    def signals(
         self,
         t: RealScalarLike,
         measurement: MRPState,
         reference: AttitudeReference,
         state: RateBarrierState,
     ) -> dict[str, Array]:
-        del t
+        del t, state
         v = _errors(measurement, reference).v
-        ratio = self.barrier_ratio(v)
-        outside = ratio >= 1
-        if self.allow_inadmissible:
-            violation = outside & (state.time_inside > 0)
-        else:
-            violation = outside
-        return {
-            "barrier_ratio": ratio,
-            "barrier_gain": self.barrier_gain(v),
-            "violation": violation,
-        }
+        return {"barrier_ratio": self.barrier_ratio(v), "barrier_gain": self.barrier_gain(v)}
+
+
+@eqx.filter_jit
+def _initial_barrier(
+    law: RateConstrainedFiniteTimeMRP, measurement: MRPState, reference: AttitudeReference
+) -> tuple[Vec3, Scalar, Scalar]:
+    v = _errors(measurement, reference).v
+    return v, law.chi(v), law.barrier_level

@@ -5,7 +5,7 @@ from typing import ClassVar
 from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike, Vec3
-from .._validation import check_positive
+from .._validation import check_gain_shape, check_positive
 from ..plants import MRPState, QuaternionState
 from ..references import AttitudeReference
 from ..rotations import (
@@ -35,10 +35,11 @@ class MRPPD(AbstractController):
     k1: Float[Array, "*k"]
     k2: Float[Array, "*k"]
     measurement_type: ClassVar[type] = MRPState
+    reference_type: ClassVar[type] = AttitudeReference
 
     def __init__(self, k1: Float[ArrayLike, "*k"], k2: Float[ArrayLike, "*k"]):
-        self.k1 = check_positive("MRPPD", "k1", k1)
-        self.k2 = check_positive("MRPPD", "k2", k2)
+        self.k1 = check_gain_shape("MRPPD", "k1", check_positive("MRPPD", "k1", k1))
+        self.k2 = check_gain_shape("MRPPD", "k2", check_positive("MRPPD", "k2", k2))
 
     def init(self, t0: RealScalarLike, measurement: MRPState, reference) -> None:
         del t0, reference
@@ -51,10 +52,6 @@ class MRPPD(AbstractController):
         sigma_e = attitude_error_mrp(measurement.sigma, mrp_from_quat(reference.q_d))
         omega_e = rate_error_mrp(sigma_e, measurement.omega, reference.omega_d)
         return -self.k1 * sigma_e - self.k2 * omega_e, None
-
-    def diagnostics(self, t, measurement, reference, state) -> dict:
-        del t, measurement, reference, state
-        return {}
 
 
 class QuaternionPD(AbstractController):
@@ -71,10 +68,11 @@ class QuaternionPD(AbstractController):
     kp: Float[Array, "*k"]
     kd: Float[Array, "*k"]
     measurement_type: ClassVar[type] = QuaternionState
+    reference_type: ClassVar[type] = AttitudeReference
 
     def __init__(self, kp: Float[ArrayLike, "*k"], kd: Float[ArrayLike, "*k"]):
-        self.kp = check_positive("QuaternionPD", "kp", kp)
-        self.kd = check_positive("QuaternionPD", "kd", kd)
+        self.kp = check_gain_shape("QuaternionPD", "kp", check_positive("QuaternionPD", "kp", kp))
+        self.kd = check_gain_shape("QuaternionPD", "kd", check_positive("QuaternionPD", "kd", kd))
 
     def init(self, t0: RealScalarLike, measurement: QuaternionState, reference) -> None:
         del t0, reference
@@ -91,7 +89,3 @@ class QuaternionPD(AbstractController):
         e = attitude_error_quat(measurement.q, reference.q_d)
         e_omega = rate_error(e, measurement.omega, reference.omega_d)
         return -self.kp * e[1:] - self.kd * e_omega, None
-
-    def diagnostics(self, t, measurement, reference, state) -> dict:
-        del t, measurement, reference, state
-        return {}

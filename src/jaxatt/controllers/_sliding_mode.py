@@ -38,7 +38,9 @@ class SlidingModeTracking(AbstractController):
       omit $\lambda\dot e_v$ (erratum E4), so that $s$ does not follow the intended law.
 
     The control is the *commanded* torque; saturation belongs to the actuator model.
-    `diagnostics` records the sliding variable as `"s"`.
+    `signals` records the sliding variable as `"s"`. The law reads a `QuaternionState`
+    measurement, so it flies any plant whose `measure` returns one (a rigid body with modal
+    or slosh coordinates included).
     """
 
     surface: AbstractSlidingSurface
@@ -47,6 +49,7 @@ class SlidingModeTracking(AbstractController):
     robust: AbstractRobustTerm | None
     surface_feedforward: bool = eqx.field(static=True)
     measurement_type: ClassVar[type] = QuaternionState
+    reference_type: ClassVar[type] = AttitudeReference
 
     def __init__(
         self,
@@ -94,7 +97,7 @@ class SlidingModeTracking(AbstractController):
             e_omega_dot = e_omega_dot - self.robust(s)
         return self.inertia @ e_omega_dot, None
 
-    def diagnostics(
+    def signals(
         self, t: RealScalarLike, measurement: QuaternionState, reference, state: None
     ) -> dict[str, Array]:
         del t, state

@@ -12,9 +12,9 @@ def _overshoot(x: Array) -> Array:
     x0 = x[0]
     direction = jnp.sign(x0)
     excursion = jnp.maximum(jnp.max(-direction[None, :] * x, axis=0), 0.0)
-    nonzero = x0 != 0
-    scale = jnp.where(nonzero, jnp.abs(x0), 1.0)
-    return jnp.where(nonzero, excursion / scale, 0.0)
+    zero = x0 == 0  # (not `!= 0`: a NaN start gives a NaN overshoot)
+    scale = jnp.where(zero, 1.0, jnp.abs(x0))
+    return jnp.where(zero, 0.0, excursion / scale)
 
 
 def overshoot(x: Float[ArrayLike, "T n"]) -> Float[Array, " n"]:

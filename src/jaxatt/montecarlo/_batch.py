@@ -1,4 +1,9 @@
-"""`monte_carlo`: one compiled, batched (vmap / chunked / sharded) run of a closed loop."""
+"""The one batch runner (`run_batch`) and `monte_carlo`, its checked, sharded front end.
+
+`run_batch` is what every batched simulation in jaxatt runs: `monte_carlo`, the tuning
+objectives, the scenarios' batched reproductions and the benchmarks. A tuning objective and a
+Monte Carlo study with the same settings therefore run (and differentiate) the same program.
+"""
 
 import numbers
 from collections.abc import Callable, Mapping
@@ -12,79 +17,159 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from jaxtyping import Array, ArrayLike, PyTree
 
-from .._custom_types import Scalar
-from .._validation import UNIT_QUATERNION_TOLERANCE
-from ..metrics import control_effort, peak, settling_time
-from ..numerics import safe_norm
-from ..plants import QuaternionState
+from .._paths import path_selector
+from .._validation import check_tree_finite
+from ..metrics import AbstractMetric
 from ..simulation import (
     RK4,
+    AbstractClosedLoop,
     AbstractFixedStepSolver,
     AbstractSampling,
-    ClosedLoop,
     Continuous,
+    Performance,
+    Simulation,
     Trajectory,
-    simulate,
+    integrate,
+    samples_at_once,
 )
-from ..simulation._solvers import as_fixed_step_solver
+from ..simulation._simulate import any_traced, check_closed_loop
 from ._summary import MonteCarloResult
 
 
 _BATCH_AXIS = "batch"
 
-SCALARIZE_FROM = 1000
-"""Batches (per device, or per `lax.map` chunk) from this size on are scalarized by default."""
+Metrics = Mapping[str, AbstractMetric] | Callable[[Trajectory], Mapping[str, Array]]
+"""A dict name -> metric object (preferred), or a function `traj -> dict name -> array`."""
 
 
-def default_metrics(traj: Trajectory, *, tolerance: float = 1e-2) -> dict[str, Scalar]:
-    r"""The metrics [`monte_carlo`][] records per sample when `metrics=None`.
+def default_metrics(closed_loop: AbstractClosedLoop, *, tolerance: float = 1e-2) -> dict:
+    """The metrics [`monte_carlo`][] records when `metrics=None`: the plant's
+    `default_metrics(tolerance)` (for rigid bodies: `settling_time` of the attitude-error
+    vector to `tolerance`, `peak_torque`, `effort`, `max_rate_error`)."""
+    plant = getattr(closed_loop, "plant", None)
+    metrics = {} if plant is None else plant.default_metrics(tolerance)
+    if not metrics:
+        raise ValueError(
+            f"monte_carlo: {type(plant).__name__ if plant is not None else 'the closed loop'} "
+            "declares no default metrics; pass `metrics=` (a dict name -> metric object, e.g. "
+            "{'settling_time': jaxatt.metrics.SettlingTime('error', 1e-2)})."
+        )
+    return metrics
 
-    - `settling_time` [s]: last exit of the attitude-error magnitude from the band
-      $\le$ `tolerance` ([`jaxatt.metrics.settling_time`][]; `inf` if not settled within the
-      horizon). The magnitude is $\|e_v\|$ (components 1:4 of the error quaternion,
-      $= \sin(\phi/2)$) for quaternion plants and $\|\sigma_e\|$ ($= \tan(\phi/4)$) for MRP
-      plants.
-    - `peak_torque` [N m]: $\max_{t,i}|u_i(t)|$ of the applied control.
-    - `effort` [N^2 m^2 s]: $\int \|u\|^2 dt$ (trapezoid rule).
-    - `max_rate_error` [rad/s]: $\max_t \|e_\omega(t)\|$.
 
-    All are computed on the saved samples (so `save_every` sets their resolution). For
-    another tolerance pass `metrics=functools.partial(default_metrics, tolerance=...)`
-    (built once and reused, so that repeated runs do not recompile).
+def evaluate_metrics(metrics: Metrics, traj: Trajectory) -> dict[str, Array]:
+    """Per-sample metric values; a failed sample gets each metric's `failure_value` (`inf`
+    for times, NaN otherwise; NaN for every value of a metric function)."""
+    ok = traj.successful
+    if isinstance(metrics, Mapping):
+        out = {}
+        for name, metric in metrics.items():
+            value = jnp.asarray(metric(traj))
+            out[str(name)] = jnp.where(ok, value, jnp.asarray(metric.failure_value, value.dtype))
+        return out
+    values = metrics(traj)
+    if not isinstance(values, Mapping):
+        raise ValueError(
+            "monte_carlo: `metrics(traj)` must return a dict name -> array, got "
+            f"{type(values).__name__}."
+        )
+    out = {}
+    for name, value in values.items():
+        value = jnp.asarray(value)
+        if jnp.issubdtype(value.dtype, jnp.inexact):
+            value = jnp.where(ok, value, jnp.nan)
+        out[str(name)] = value
+    return out
 
-    **Arguments:**
-    - `traj`: one (unbatched) trajectory.
-    - `tolerance`: settling band, in the unit of the attitude-error magnitude.
 
-    **Returns:** a dict of scalar arrays.
+def _check_metrics(where: str, metrics) -> Metrics:
+    if isinstance(metrics, Mapping):
+        for name, metric in metrics.items():
+            if not isinstance(metric, AbstractMetric):
+                raise ValueError(
+                    f"{where}: metric {name!r} must be a jaxatt.metrics metric object "
+                    f"(SettlingTime, Peak, Effort, ...), got {type(metric).__name__}."
+                )
+        return dict(metrics)
+    if not callable(metrics):
+        raise ValueError(
+            f"{where}: `metrics` must be a dict of metric objects or a function traj -> dict, "
+            f"got {metrics!r}."
+        )
+    return metrics
+
+
+def run_batch(
+    closed_loop: AbstractClosedLoop,
+    x0s: PyTree[Array],
+    sim: Simulation,
+    metrics: Metrics,
+    *,
+    batched: PyTree | None = None,
+    keep_trajectories: bool = False,
+    batch_size: int | None = None,
+    sharding: NamedSharding | None = None,
+) -> MonteCarloResult:
+    """Simulate every sample of a batch and reduce each to its metrics (traceable).
+
+    Sample $k$ is `integrate(loop_k, x0s[k], sim)`, `loop_k` being `closed_loop` with the
+    arrays of `batched` (a pytree of the loop's structure holding the batched fields, as
+    `eqx.partition` makes) replaced by their $k$-th entries. No host-side checks: callers
+    ([`monte_carlo`][], the tuning objectives) validate first, and `sim.performance` must be
+    resolved.
+
+    - `batch_size=None`: one `vmap` over the batch; else `lax.map` chunks of `batch_size`.
+    - `sharding`: split the batch axis over the devices of a 1-D mesh (the batch must be a
+      multiple of the device count); each device runs its samples without communication.
     """
-    error = traj.signals["attitude_error"]
-    vector = error[:, 1:] if error.shape[-1] == 4 else error
-    u = traj.signals["u"]
-    return {
-        "settling_time": settling_time(traj.ts, safe_norm(vector), tolerance),
-        "peak_torque": peak(u),
-        "effort": control_effort(traj.ts, u),
-        "max_rate_error": jnp.max(safe_norm(traj.signals["rate_error"])),
-    }
+
+    def one(x):
+        x0, loop_batch = x
+        loop = closed_loop if loop_batch is None else eqx.combine(loop_batch, closed_loop)
+        traj = integrate(loop, x0, sim)
+        values = evaluate_metrics(metrics, traj)
+        return values, traj.status, traj.failure_time, traj if keep_trajectories else None
+
+    def run(chunk):
+        if batch_size is None:
+            return jax.vmap(one)(chunk)
+        return jax.lax.map(one, chunk, batch_size=batch_size)
+
+    xs = (x0s, batched)
+    if sharding is None:
+        values, status, failure_time, trajs = run(xs)
+    else:
+        # (n, ...) -> (devices, n / devices, ...): the device axis is vmapped and sharded.
+        shards = sharding.mesh.devices.size
+        split = jtu.tree_map(lambda x: x.reshape(shards, -1, *x.shape[1:]), xs)
+        split = jtu.tree_map(lambda x: jax.lax.with_sharding_constraint(x, sharding), split)
+        out = jax.vmap(run)(split)
+        out = jtu.tree_map(lambda x: jax.lax.with_sharding_constraint(x, sharding), out)
+        values, status, failure_time, trajs = jtu.tree_map(
+            lambda x: x.reshape(-1, *x.shape[2:]), out
+        )
+    return MonteCarloResult(
+        metrics=values, status=status, failure_time=failure_time, trajectories=trajs
+    )
 
 
-def default_scalarize(n: int, *, batch_size: int | None = None, devices: int = 1) -> bool:
-    """Whether [`monte_carlo`][] scalarizes by default: when the samples one device runs at
-    once (its share of `n`, or the `lax.map` chunk if smaller) number `SCALARIZE_FROM` or
-    more."""
-    per_device = -(-n // max(1, devices))
-    at_once = per_device if batch_size is None else min(batch_size, per_device)
-    return at_once >= SCALARIZE_FROM
+run_batch_jit = eqx.filter_jit(run_batch)
 
 
 def _is_none(x) -> bool:
     return x is None
 
 
+def _select(where) -> Callable:
+    """A selector: `where` itself if callable, or the field at a dotted path."""
+    if callable(where):
+        return where
+    return path_selector(where)
+
+
 def batch_field(
     module: PyTree,
-    where: Callable[[PyTree], PyTree],
+    where: Callable[[PyTree], PyTree] | str,
     values: PyTree[ArrayLike],
     in_axes: PyTree | None = None,
 ) -> tuple[PyTree, PyTree]:
@@ -92,11 +177,11 @@ def batch_field(
 
     **Arguments:**
     - `module`: a pytree, typically a [`jaxatt.ClosedLoop`][].
-    - `where`: selects the field, as in `eqx.tree_at`, e.g.
-      `lambda loop: loop.plant.body.inertia`.
+    - `where`: selects the field, as in `eqx.tree_at` (e.g.
+      `lambda loop: loop.plant.body.inertia`), or its dotted path (`"plant.body.inertia"`).
     - `values`: the batch: an array with a leading axis of length `n` and otherwise the shape
       of the field it replaces, or a pytree whose leaves all have leading axis `n` (e.g. the
-      `Sinusoid` from [`sinusoid_dispersion`][]).
+      `Sinusoid` from [`sinusoid_dispersion`][]). Must be finite.
     - `in_axes`: the `in_axes` returned by a previous call, to batch several fields; `None`
       for the first call.
 
@@ -107,11 +192,12 @@ def batch_field(
 
     !!! example
         ```python
-        loop, axes = batch_field(loop, lambda m: m.plant.body.inertia, inertias)
-        loop, axes = batch_field(loop, lambda m: m.plant.body.disturbance, signals, axes)
+        loop, axes = batch_field(loop, "plant.body.inertia", inertias)
+        loop, axes = batch_field(loop, "plant.body.disturbance", signals, axes)
         result = monte_carlo(loop, x0s, 0.0, 10.0, dt=1e-3, loop_axes=axes)
         ```
     """
+    where = _select(where)
     if in_axes is None:
         in_axes = jtu.tree_map(lambda _: None, module)
     try:
@@ -149,6 +235,7 @@ def batch_field(
                 "batch_field: `values` must have the pytree structure of the field it replaces "
                 f"({type(old).__name__}), got {type(values).__name__}."
             )
+    check_tree_finite("batch_field", "values", values)
     batched = eqx.tree_at(where, module, values)
     in_axes = eqx.tree_at(where, in_axes, 0, is_leaf=_is_none)
     return batched, in_axes
@@ -167,7 +254,7 @@ def _leading_size(where: str, name: str, tree: PyTree) -> int | None:
     return shapes[0][0]
 
 
-def _loop_filter(loop_axes: PyTree, closed_loop: ClosedLoop) -> PyTree[bool]:
+def _loop_filter(loop_axes: PyTree, closed_loop: AbstractClosedLoop) -> PyTree[bool]:
     def expand(axis, subtree):
         if axis is not None and not (isinstance(axis, int) and axis == 0):
             raise ValueError(
@@ -184,19 +271,6 @@ def _loop_filter(loop_axes: PyTree, closed_loop: ClosedLoop) -> PyTree[bool]:
             "monte_carlo: `loop_axes` must have the structure of `closed_loop` (a prefix of "
             "it), as returned by batch_field."
         ) from None
-
-
-def _check_quaternions(x0s: PyTree) -> None:
-    if not isinstance(x0s, QuaternionState) or isinstance(x0s.q, jax.core.Tracer):
-        return
-    norms = np.linalg.norm(np.asarray(x0s.q), axis=-1)
-    bad = np.flatnonzero(~(np.abs(norms - 1) <= UNIT_QUATERNION_TOLERANCE))
-    if bad.size:
-        raise ValueError(
-            "monte_carlo: `x0s.q` must hold unit quaternions (| ||q|| - 1 | <= "
-            f"{UNIT_QUATERNION_TOLERANCE:g}); samples {bad[:10].tolist()} are not (norms "
-            f"{norms[bad[:10]].tolist()}). Normalize them first."
-        )
 
 
 def _check_positive_int(name: str, value) -> int:
@@ -223,86 +297,31 @@ def _place(x: Array, sharding: NamedSharding) -> Array:
     return jax.make_array_from_callback(host.shape, sharding, lambda index: host[index])
 
 
-def _evaluate(metrics: Callable, traj: Trajectory) -> dict[str, Array]:
-    values = metrics(traj)
-    if not isinstance(values, Mapping):
+def split_batched_fields(
+    where: str, closed_loop: AbstractClosedLoop, loop_axes: PyTree | None, n: int
+) -> tuple[PyTree | None, AbstractClosedLoop]:
+    """`(batched, unbatched)` parts of a closed loop whose fields `loop_axes` marks."""
+    if loop_axes is None:
+        return None, closed_loop
+    batched, loop = eqx.partition(closed_loop, _loop_filter(loop_axes, closed_loop))
+    sizes = {jnp.shape(leaf)[:1] for leaf in jtu.tree_leaves(batched)}
+    if sizes != {(n,)}:
         raise ValueError(
-            "monte_carlo: `metrics(traj)` must return a dict name -> scalar array, got "
-            f"{type(values).__name__}."
+            f"{where}: the batched fields of `closed_loop` (marked by `loop_axes`) must have "
+            f"leading axis n = {n} (the batch size of `x0s`), got leading shapes "
+            f"{sorted(sizes)}."
         )
-    out = {}
-    for name, value in values.items():
-        value = jnp.asarray(value)
-        if value.shape != ():
-            raise ValueError(
-                f"monte_carlo: metric {name!r} must be a scalar per sample, got shape "
-                f"{value.shape}; return one entry per component instead."
-            )
-        out[str(name)] = value
-    return out
-
-
-@eqx.filter_jit
-def _run(
-    loop: ClosedLoop,
-    xs: tuple[PyTree, PyTree],
-    sampling: AbstractSampling,
-    solver: AbstractFixedStepSolver,
-    *,
-    t0: float,
-    t1: float,
-    dt: float,
-    metrics: Callable,
-    save_every: int,
-    keep_trajectories: bool,
-    batch_size: int | None,
-    sharding: NamedSharding | None,
-    scalarize: bool,
-) -> MonteCarloResult:
-    def one(x):
-        x0, batched = x
-        sample_loop = loop if batched is None else eqx.combine(batched, loop)
-        traj = simulate(
-            sample_loop,
-            x0,
-            t0,
-            t1,
-            dt=dt,
-            sampling=sampling,
-            solver=solver,
-            save_every=save_every,
-            throw=False,
-            scalarize=scalarize,
-        )
-        return _evaluate(metrics, traj), traj.result, traj if keep_trajectories else None
-
-    def batch(chunk):
-        if batch_size is None:
-            return jax.vmap(one)(chunk)
-        return jax.lax.map(one, chunk, batch_size=batch_size)
-
-    if sharding is None:
-        values, result, trajs = batch(xs)
-    else:
-        # (n, ...) -> (devices, n / devices, ...): the device axis is vmapped and sharded; each
-        # device runs its own samples (in chunks of `batch_size`) with no communication.
-        shards = sharding.mesh.devices.size
-        split = jtu.tree_map(lambda x: x.reshape(shards, -1, *x.shape[1:]), xs)
-        split = jtu.tree_map(lambda x: jax.lax.with_sharding_constraint(x, sharding), split)
-        out = jax.vmap(batch)(split)
-        out = jtu.tree_map(lambda x: jax.lax.with_sharding_constraint(x, sharding), out)
-        values, result, trajs = jtu.tree_map(lambda x: x.reshape(-1, *x.shape[2:]), out)
-    return MonteCarloResult(metrics=values, result=result, trajectories=trajs)
+    return batched, loop
 
 
 def monte_carlo(
-    closed_loop: ClosedLoop,
+    closed_loop: AbstractClosedLoop,
     x0s: PyTree[ArrayLike],
     t0: float | int,
     t1: float | int,
     *,
     dt: float,
-    metrics: Callable[[Trajectory], Mapping[str, Array]] | None = None,
+    metrics: Metrics | None = None,
     loop_axes: PyTree | None = None,
     sampling: AbstractSampling = Continuous(),
     solver: AbstractFixedStepSolver | dfx.AbstractSolver = RK4(),
@@ -310,14 +329,14 @@ def monte_carlo(
     keep_trajectories: bool = False,
     batch_size: int | None = None,
     shard: bool = True,
-    scalarize: bool | None = None,
+    performance: Performance | None = None,
 ) -> MonteCarloResult:
     r"""Simulate `closed_loop` from every initial state of a batch, in one compiled call.
 
     Sample $k$ is `simulate(loop_k, x0s[k], t0, t1, dt=dt, ..., throw=False)` where `loop_k`
     is `closed_loop` with its batched fields (marked by `loop_axes`, e.g. from
-    [`batch_field`][]) replaced by their $k$-th entries; `metrics(traj)` reduces each
-    trajectory to scalars. All samples run in one `eqx.filter_jit` computation:
+    [`batch_field`][]) replaced by their $k$-th entries; the metrics reduce each trajectory.
+    All samples run in one `eqx.filter_jit` computation ([`run_batch`][]):
 
     - **vmap** over the batch (default), or **chunks** of `batch_size` samples with
       `jax.lax.map(..., batch_size=...)` when memory binds (the whole trajectory of every
@@ -332,92 +351,75 @@ def monte_carlo(
       each process supplies its own shards, and [`MonteCarloResult`][]'s summaries gather the
       metrics to every host. `shard=False` keeps everything on the default device.
 
-    A sample that fails (non-finite state, a controller's constraint violation) never aborts
-    the batch: its outcome is kept in `result` and counted by the summaries. Non-unit initial
-    quaternions are a configuration error and raise before compiling.
+    **Failures never abort the batch and never look good.** A sample that fails (non-finite
+    state, invalid plant, a controller's constraint violation; see
+    [`jaxatt.simulation.Status`][]) keeps its status and failure time, and its metric values
+    are replaced by the metrics' `failure_value` (`inf` for times, NaN otherwise): summaries
+    count it as failed, plots draw it as failed, and no mean includes it. Initial states are
+    checked before compiling (shapes, finite values, unit quaternions), naming bad samples.
 
     **Arguments:**
-    - `closed_loop`: a [`jaxatt.ClosedLoop`][], possibly with batched fields.
-    - `x0s`: the batch of plant initial states, e.g. `QuaternionState(q, omega)` with `q` of
-      shape `(n, 4)` and `omega` of shape `(n, 3)`.
-    - `t0`, `t1`, `dt`: Python numbers [s], static as in [`jaxatt.simulate`][] (changing them
-      recompiles; changing the values in `x0s` or in the loop does not).
-    - `metrics`: `traj -> dict[str, scalar array]` for one trajectory; default
-      [`default_metrics`][]. It is static: define it once (a new lambda per call
-      recompiles).
-    - `loop_axes`: `None` (nothing batched in the loop) or the `in_axes` pytree of
-      [`batch_field`][]: 0 at fields with a leading batch axis of length `n`, `None` elsewhere.
-    - `sampling`, `solver`, `save_every`: as in [`jaxatt.simulate`][].
-    - `keep_trajectories`: also return the batched trajectories (memory: `n` times the saved
-      trajectory; use a large `save_every` for big batches).
-    - `batch_size`: samples per `lax.map` chunk (per device when sharded); `None` vmaps the
-      whole batch at once.
-    - `shard`: shard the batch over all devices when there are several.
-    - `scalarize`: run every sample with `simulate(..., scalarize=True)`: the batch then
-      lowers to elementwise code on one `(batch,)` array per state component, which on a
-      2-core CPU was 1.5-3x faster from about 1000 samples on, at about twice the compile
-      time, and no faster below (benchmarks/README.md). `None` (default) scalarizes batches of
-      at least `SCALARIZE_FROM` = 1000 samples (per device when sharded).
+    - `closed_loop`: any [`jaxatt.AbstractClosedLoop`][], possibly with batched fields.
+    - `x0s`: the initial plant states with a leading batch axis `n`.
+    - `t0`, `t1`, `dt`, `sampling`, `solver`, `save_every`: as [`jaxatt.simulate`][].
+      `save_every` sets the resolution of the metrics that read saved samples.
+    - `metrics`: a dict name -> metric object ([`jaxatt.metrics.SettlingTime`][],
+      [`jaxatt.metrics.Peak`][], ...), or a function `traj -> dict`; `None` gives
+      [`default_metrics`][]. Metric values may be scalars or one value per component.
+    - `loop_axes`: the `in_axes` from [`batch_field`][] marking batched loop fields.
+    - `keep_trajectories`: also return the batched [`jaxatt.Trajectory`][].
+    - `batch_size`: `lax.map` chunk size (memory); `shard`: see above.
+    - `performance`: a [`jaxatt.simulation.Performance`][]; by default the loop is
+      scalarized on CPU for 1000 or more samples run at once per device.
 
-    **Returns:** a [`MonteCarloResult`][] (`metrics`, `result`, `trajectories`, `summary()`).
+    **Returns:** a [`MonteCarloResult`][] (`metrics`, `status`, `failure_time`,
+    `trajectories`, `summary()`).
 
-    **Gradients:** without sharding (one device or `shard=False`) the call is traceable, so a
-    loss built from its metrics can be differentiated with `eqx.filter_grad` with respect to
-    the loop's arrays and `x0s` (as for `simulate`).
+    **Gradients:** without sharding (one device or `shard=False`) the underlying
+    [`run_batch`][] is traceable, which is what the tuning objectives differentiate.
     """
     where = "monte_carlo"
-    if not isinstance(closed_loop, ClosedLoop):
-        raise ValueError(
-            f"{where}: `closed_loop` must be a jaxatt ClosedLoop, got {type(closed_loop).__name__}."
-        )
-    metrics = default_metrics if metrics is None else metrics
-    if not callable(metrics):
-        raise ValueError(f"{where}: `metrics` must be callable (traj -> dict), got {metrics!r}.")
-    save_every = _check_positive_int("save_every", save_every)
+    check_closed_loop(where, closed_loop)
+    sim = Simulation(
+        t0,
+        t1,
+        dt,
+        sampling=sampling,
+        solver=solver,
+        save_every=save_every,
+        performance=performance,
+        where=where,
+    )
+    metrics = default_metrics(closed_loop) if metrics is None else metrics
+    metrics = _check_metrics(where, metrics)
     if batch_size is not None:
         batch_size = _check_positive_int("batch_size", batch_size)
     n = _leading_size(where, "x0s", x0s)
     if n is None or n == 0:
         raise ValueError(f"{where}: `x0s` must be a non-empty batch of initial states.")
-    if loop_axes is None:
-        batched, loop = None, closed_loop
-    else:
-        batched, loop = eqx.partition(closed_loop, _loop_filter(loop_axes, closed_loop))
-        sizes = {jnp.shape(leaf)[:1] for leaf in jtu.tree_leaves(batched)}
-        if sizes != {(n,)}:
-            raise ValueError(
-                f"{where}: the batched fields of `closed_loop` (marked by `loop_axes`) must have "
-                f"leading axis n = {n} (the batch size of `x0s`), got leading shapes "
-                f"{sorted(sizes)}."
-            )
-    _check_quaternions(x0s)
-    xs = (x0s, batched)
-    if scalarize is None:
-        devices = len(jax.devices()) if shard else 1
-        scalarize = default_scalarize(n, batch_size=batch_size, devices=devices)
+    x0s = closed_loop.check_state(x0s, "x0s", (n,))
+    batched, loop = split_batched_fields(where, closed_loop, loop_axes, n)
     devices = jax.devices() if shard else []
+    at_once = samples_at_once(n, batch_size=batch_size, devices=max(1, len(devices)))
+    sim = sim.with_performance(sim.performance.resolve(at_once))
+    xs = (x0s, batched)
     sharding = None
     padded = n
-    if len(devices) > 1:
+    if len(devices) > 1 and not any_traced(xs):
         padded = -(-n // len(devices)) * len(devices)
         sharding = NamedSharding(
             Mesh(np.asarray(devices), (_BATCH_AXIS,)), PartitionSpec(_BATCH_AXIS)
         )
         xs = jtu.tree_map(lambda x: _place(_pad(jnp.asarray(x), padded), sharding), xs)
-    out = _run(
+    out = run_batch_jit(
         loop,
-        xs,
-        sampling,
-        as_fixed_step_solver(solver),
-        t0=t0,
-        t1=t1,
-        dt=dt,
-        metrics=metrics,
-        save_every=save_every,
+        xs[0],
+        sim,
+        metrics,
+        batched=xs[1],
         keep_trajectories=bool(keep_trajectories),
         batch_size=batch_size,
         sharding=sharding,
-        scalarize=bool(scalarize),
     )
     if padded != n:
         out = jtu.tree_map(lambda x: x[:n], out)

@@ -13,12 +13,14 @@ import numbers
 import jax
 import jax.numpy as jnp
 import jax.random as jr
+import numpy as np
 from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 
 from .._custom_types import RealScalarLike
 from .._validation import check, check_nonnegative, check_spd, check_unit_quaternion
-from ..plants import Sinusoid
-from ..rotations import quat_multiply, quat_to_dcm
+from ..plants import MRPState, QuaternionState
+from ..rotations import mrp_from_quat, quat_multiply, quat_to_dcm
+from ..signals import Sinusoid
 
 
 NEWTON_STEPS = 5
@@ -162,7 +164,7 @@ def attitudes_within(
         where,
         "max_angle",
         max_angle,
-        lambda x: jnp.isfinite(x) & (x > 0) & (x <= jnp.pi),
+        lambda xp, x: xp.isfinite(x) & (x > 0) & (x <= np.pi),
         "must lie in (0, pi] [rad]",
     )
     if max_angle.ndim != 0:
@@ -285,14 +287,14 @@ def inertia_dispersion(
         where,
         "principal_scale",
         principal_scale,
-        lambda x: jnp.isfinite(x) & (x >= 0) & (x < 1),
+        lambda xp, x: xp.isfinite(x) & (x >= 0) & (x < 1),
         "must lie in [0, 1)",
     )
     misalignment = check(
         where,
         "max_misalignment",
         max_misalignment,
-        lambda x: jnp.isfinite(x) & (x >= 0) & (x <= jnp.pi),
+        lambda xp, x: xp.isfinite(x) & (x >= 0) & (x <= np.pi),
         "must lie in [0, pi] [rad]",
     )
     for name, value in (("principal_scale", scale), ("max_misalignment", misalignment)):
@@ -383,3 +385,145 @@ def _sinusoid_dispersion(
     )
     psi = jr.uniform(k_p, shape, dtype=amplitude.dtype, minval=-phase_spread, maxval=phase_spread)
     return amplitude * (1 + eps), frequency, phase + psi, offset
+
+
+def mrps_in_ball(key: PRNGKeyArray, n: int, max_norm: RealScalarLike) -> Float[Array, "n 3"]:
+    r"""`n` MRPs uniform (in the Euclidean sense) in the ball $\|\sigma\| \le \bar\sigma$.
+
+    $\sigma = \bar\sigma\, u^{1/3}\, \hat n$ with $\hat n$ a normalized Gaussian vector and
+    $u \sim U[0, 1)$ (two halves of `jr.split(key)`). Uniform in the MRP coordinates, not in
+    SO(3): use [`uniform_attitudes`][] for the Haar measure.
+
+    **Arguments:** `key`, `n` (static), `max_norm` $\bar\sigma > 0$ (an MRP norm
+    $\tan(\phi/4)$; 1 is a rotation by $\pi$).
+
+    **Returns:** MRPs, shape `(n, 3)`.
+    """
+    where = "mrps_in_ball"
+    n = _check_count(where, n)
+    max_norm = _check_bound(where, "max_norm", max_norm, ((),))
+    return _mrps_in_ball(key, n, max_norm)
+
+
+@ft.partial(jax.jit, static_argnums=1)
+def _mrps_in_ball(key: PRNGKeyArray, n: int, max_norm: Array) -> Array:
+    k_dir, k_radius = jr.split(key)
+    return _ball(k_dir, k_radius, n, max_norm)
+
+
+def _ball(k_dir, k_radius, n: int, max_norm: Array) -> Array:
+    direction = jr.normal(k_dir, (n, 3), dtype=max_norm.dtype)
+    direction = direction / jnp.linalg.norm(direction, axis=1, keepdims=True)
+    return direction * max_norm * jr.uniform(k_radius, (n, 1), dtype=max_norm.dtype) ** (1 / 3)
+
+
+def rates_with_barrier_ratio(
+    key: PRNGKeyArray,
+    n: int,
+    *,
+    rate_limit: RealScalarLike,
+    exponent: RealScalarLike,
+    max_ratio: RealScalarLike,
+) -> Float[Array, "n 3"]:
+    r"""`n` rates whose barrier ratio $\chi(\omega)/M^p$, $\chi(\omega) = \sum_i|\omega_i|^p$,
+    is uniform in $[0, r_{\max})$, along Gaussian directions.
+
+    $\omega = M\, r^{1/p}\, w$ with $w$ a Gaussian vector normalized to $\sum_i |w_i|^p = 1$
+    and $r \sim U[0, r_{\max})$ (two halves of `jr.split(key)`), so
+    $\chi(\omega) = r M^p$: every draw lies inside the barrier set $\chi < M^p$ of a
+    rate-constrained law (e.g. [`jaxatt.controllers.RateConstrainedFiniteTimeMRP`][],
+    with $p = 1 + \alpha_2$).
+
+    **Arguments:** `key`, `n` (static); `rate_limit` $M > 0$ [rad/s]; `exponent` $p > 0$;
+    `max_ratio` $r_{\max} \in (0, 1]$.
+
+    **Returns:** rates [rad/s], shape `(n, 3)`.
+    """
+    where = "rates_with_barrier_ratio"
+    n = _check_count(where, n)
+    rate_limit = _check_bound(where, "rate_limit", rate_limit, ((),))
+    exponent = _check_bound(where, "exponent", exponent, ((),))
+    max_ratio = check(
+        where, "max_ratio", max_ratio, lambda xp, x: (x > 0) & (x <= 1), "must lie in (0, 1]"
+    )
+    k_w, k_r = jr.split(key)
+    return _barrier_rates(k_w, k_r, n, rate_limit, exponent, max_ratio)
+
+
+@ft.partial(jax.jit, static_argnums=2)
+def _barrier_rates(k_w, k_r, n: int, rate_limit, exponent, max_ratio) -> Array:
+    w = jr.normal(k_w, (n, 3), dtype=rate_limit.dtype)
+    w = w / jnp.sum(jnp.abs(w) ** exponent, axis=1, keepdims=True) ** (1 / exponent)
+    ratio = max_ratio * jr.uniform(k_r, (n, 1), dtype=rate_limit.dtype)
+    return rate_limit * w * ratio ** (1 / exponent)
+
+
+def barrier_states(
+    key: PRNGKeyArray,
+    n: int,
+    *,
+    max_sigma: RealScalarLike,
+    rate_limit: RealScalarLike,
+    exponent: RealScalarLike,
+    max_ratio: RealScalarLike,
+) -> MRPState:
+    r"""`n` rigid-body states inside a rate barrier: MRPs uniform in the ball
+    $\|\sigma\| <$ `max_sigma` ([`mrps_in_ball`][]'s law) and rates with a barrier ratio uniform
+    in $[0,$ `max_ratio`$)$ ([`rates_with_barrier_ratio`][]'s law).
+
+    The four draws use the four keys of `jr.split(key, 4)` (direction, radius, rate
+    direction, ratio). The batch of Yu et al. (2022)'s rate-bound Monte Carlo.
+
+    **Returns:** an `MRPState` with leading axis `n`.
+    """
+    where = "barrier_states"
+    n = _check_count(where, n)
+    max_sigma = _check_bound(where, "max_sigma", max_sigma, ((),))
+    rate_limit = _check_bound(where, "rate_limit", rate_limit, ((),))
+    exponent = _check_bound(where, "exponent", exponent, ((),))
+    max_ratio = check(
+        where, "max_ratio", max_ratio, lambda xp, x: (x > 0) & (x <= 1), "must lie in (0, 1]"
+    )
+    k_dir, k_radius, k_w, k_r = jr.split(key, 4)
+    sigma = _jit_ball(k_dir, k_radius, n, max_sigma)
+    return MRPState(sigma, _barrier_rates(k_w, k_r, n, rate_limit, exponent, max_ratio))
+
+
+_jit_ball = jax.jit(_ball, static_argnums=2)
+
+
+def quaternion_states(
+    key: PRNGKeyArray,
+    n: int,
+    *,
+    max_rate: RealScalarLike | Float[ArrayLike, "3"],
+    max_angle: RealScalarLike | None = None,
+) -> QuaternionState:
+    r"""`n` rigid-body states: attitudes Haar-uniform (`max_angle=None`, [`uniform_attitudes`][])
+    or within `max_angle` of the identity ([`attitudes_within`][]), rates uniform in the box
+    $[-\bar\omega, \bar\omega]^3$ ([`rates_in_box`][]); the two halves of `jr.split(key)`.
+
+    **Returns:** a `QuaternionState` with leading axis `n`.
+    """
+    k_q, k_w = jr.split(key)
+    q = uniform_attitudes(k_q, n) if max_angle is None else attitudes_within(k_q, n, max_angle)
+    return QuaternionState(q, rates_in_box(k_w, n, max_rate))
+
+
+def mrp_states(
+    key: PRNGKeyArray,
+    n: int,
+    *,
+    max_rate: RealScalarLike | Float[ArrayLike, "3"],
+    max_angle: RealScalarLike | None = None,
+) -> MRPState:
+    r"""As [`quaternion_states`][], with the attitudes as MRPs (canonical draws, so
+    $\|\sigma\| \le 1$).
+
+    **Returns:** an `MRPState` with leading axis `n`.
+    """
+    states = quaternion_states(key, n, max_rate=max_rate, max_angle=max_angle)
+    return MRPState(_mrps_from_quats(states.q), states.omega)
+
+
+_mrps_from_quats = jax.jit(jax.vmap(mrp_from_quat))

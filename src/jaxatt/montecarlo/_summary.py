@@ -3,9 +3,10 @@ r"""`MonteCarloResult`: per-sample metrics and outcomes of a batch, and their su
 Summaries are computed on the host with NumPy (they are reports, not part of a compiled
 computation). Conventions, for every metric:
 
-- a sample **failed** when its simulation did not succeed (`result != RESULTS.successful`:
-  a non-finite state or a controller's constraint violation); its metric values are kept but
-  never enter the statistics;
+- a sample **failed** when its simulation did not succeed (`status != Status.successful`: a
+  non-finite state, an invalid plant, or a controller's constraint violation); its metric
+  values are the metrics' failure values (`inf` for times, NaN otherwise), it is counted in
+  `failed` and never enters the statistics;
 - statistics (mean, std, min, max, quantiles) are over the **successful samples whose metric
   is finite**; a settling time of `inf` (not settled within the horizon) is excluded from them
   and counted in `nonfinite`;
@@ -13,6 +14,10 @@ computation). Conventions, for every metric:
   for settling times, torques and efforts);
 - the **success rate** is the fraction of all samples that are successful, have a finite
   metric and, when `time_limit` is given, a metric $\le$ `time_limit`.
+
+A metric with one value per component (e.g. per agent, or per axis with an
+[`jaxatt.metrics.Absolute`][] norm) is summarised per component: pass `component=k`, or let
+[`MonteCarloResult.table`][] and [`MonteCarloResult.to_dict`][] expand it.
 """
 
 import math
@@ -20,13 +25,10 @@ from collections.abc import Mapping, Sequence
 
 import equinox as eqx
 import jax
-import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Bool
+from jaxtyping import Array, Bool, Float, Int
 
-from ..metrics import settling_time
-from ..numerics import safe_norm
-from ..simulation import RESULTS, Trajectory
+from ..simulation import Status, Trajectory
 
 
 def to_host(x) -> np.ndarray:
@@ -61,19 +63,13 @@ def _check_quantiles(quantiles: Sequence[float]) -> tuple[float, ...]:
     return quantiles
 
 
-@jax.jit
-def _settling_times(ts: Array, error: Array, tolerance: Array) -> Array:
-    vector = error[..., 1:] if error.shape[-1] == 4 else error
-    return jax.vmap(lambda t, e: settling_time(t, safe_norm(e), tolerance))(ts, vector)
-
-
 class MonteCarloResult(eqx.Module):
-    """The outcome of [`monte_carlo`][]: per-sample metrics, results and (optionally) trajectories.
+    """The outcome of [`monte_carlo`][] (and of [`run_batch`][]).
 
-    - `metrics`: metric name -> array of shape `(n,)`, one value per sample (see
-      [`default_metrics`][]).
-    - `result`: per-sample [`jaxatt.RESULTS`][] (`successful`, `nonfinite_state`,
-      `constraint_violated`), shape `(n,)`.
+    - `metrics`: metric name -> array of shape `(n,)` (or `(n, k...)` for a metric with one
+      value per component); failed samples hold the metric's failure value.
+    - `status`: per-sample [`jaxatt.simulation.Status`][] codes, shape `(n,)`.
+    - `failure_time`: per-sample time [s] of the first failure (`inf` when successful).
     - `trajectories`: the batched [`jaxatt.Trajectory`][] when `keep_trajectories=True`,
       else `None`.
 
@@ -82,65 +78,58 @@ class MonteCarloResult(eqx.Module):
     """
 
     metrics: dict[str, Array]
-    result: RESULTS
+    status: Int[Array, " n"]
+    failure_time: Float[Array, " n"]
     trajectories: Trajectory | None = None
 
     @property
     def n(self) -> int:
         """Number of samples."""
-        return int(self.result._value.shape[0])
+        return int(np.shape(self.status)[0])
 
     @property
     def successful(self) -> Bool[Array, " n"]:
-        """Per-sample `result == RESULTS.successful`."""
-        return self.result == RESULTS.successful
+        """Per-sample `status == Status.successful`."""
+        return self.status == int(Status.successful)
 
-    def result_counts(self) -> dict[str, int]:
-        """Number of samples per [`jaxatt.RESULTS`][] outcome, by name."""
-        codes = to_host(self.result._value)
-        return {
-            name: int(np.sum(codes == item._value)) for name, item in RESULTS._name_to_item.items()
-        }
+    def status_counts(self) -> dict[str, int]:
+        """Number of samples per [`jaxatt.simulation.Status`][], by name."""
+        codes = to_host(self.status)
+        return {status.name: int(np.sum(codes == int(status))) for status in Status}
 
-    def _values(self, metric: str, tolerance: float | None) -> np.ndarray:
-        if tolerance is None:
-            if metric not in self.metrics:
+    def _values(self, metric: str, component) -> np.ndarray:
+        if metric not in self.metrics:
+            raise ValueError(
+                f"MonteCarloResult: `metric` must be one of {sorted(self.metrics)}, got "
+                f"{metric!r}."
+            )
+        values = to_host(self.metrics[metric])
+        if values.shape[:1] != (self.n,):
+            raise ValueError(
+                f"MonteCarloResult: metric {metric!r} has shape {values.shape}; its leading "
+                f"axis must be the batch ({self.n},)."
+            )
+        if values.ndim > 1:
+            if component is None:
                 raise ValueError(
-                    f"MonteCarloResult: `metric` must be one of {sorted(self.metrics)}, got "
-                    f"{metric!r}."
+                    f"MonteCarloResult: metric {metric!r} has one value per component (shape "
+                    f"{values.shape[1:]} per sample); pass `component=` (an index) to "
+                    "summarise one of them."
                 )
-            values = to_host(self.metrics[metric])
-            if values.shape != (self.n,):
-                raise ValueError(
-                    f"MonteCarloResult: metric {metric!r} has shape {values.shape}; summaries "
-                    f"need one scalar per sample, shape ({self.n},)."
-                )
-            return values.astype(float)
-        if metric != "settling_time":
+            index = component if isinstance(component, tuple) else (component,)
+            values = values[(slice(None), *index)]
+        elif component is not None:
             raise ValueError(
-                "MonteCarloResult.summary: `tolerance` recomputes the settling time of the "
-                f"attitude error, so `metric` must be 'settling_time', got {metric!r}."
+                f"MonteCarloResult: metric {metric!r} is a scalar per sample; "
+                f"`component` must be None, got {component!r}."
             )
-        if not (isinstance(tolerance, (int, float)) and math.isfinite(tolerance)) or tolerance <= 0:
-            raise ValueError(
-                f"MonteCarloResult.summary: `tolerance` must be positive, got {tolerance!r}."
-            )
-        if self.trajectories is None:
-            raise ValueError(
-                "MonteCarloResult.summary: `tolerance` needs the trajectories; run "
-                "monte_carlo(..., keep_trajectories=True), or compute the settling time at "
-                "that tolerance in `metrics=`."
-            )
-        traj = self.trajectories
-        return to_host(
-            _settling_times(traj.ts, traj.signals["attitude_error"], jnp.asarray(tolerance))
-        ).astype(float)
+        return values.astype(float)
 
     def summary(
         self,
         metric: str = "settling_time",
         *,
-        tolerance: float | None = None,
+        component: int | tuple[int, ...] | None = None,
         time_limit: float | None = None,
         quantiles: Sequence[float] = (0.05, 0.5, 0.95),
     ) -> dict:
@@ -148,22 +137,21 @@ class MonteCarloResult(eqx.Module):
 
         **Arguments:**
         - `metric`: a key of `metrics`.
-        - `tolerance`: optional settling tolerance (unit of the attitude error: $\|e_v\|$ for
-          quaternions, $\|\sigma_e\|$ for MRPs). When given, `metric` must be
-          `"settling_time"` and the settling time is recomputed at this tolerance from the
-          kept trajectories (`keep_trajectories=True`; their save interval sets the
-          resolution).
+        - `component`: for a metric with one value per component, which one.
         - `time_limit`: optional bound [unit of the metric, s for times]: a sample counts as a
           success only if its metric is $\le$ `time_limit`.
         - `quantiles`: probabilities in [0, 1] at which to report quantiles (NumPy's linear
           interpolation).
 
-        **Returns:** a dict: `metric`, `count` (samples), `failed` (unsuccessful results),
-        `results` (count per outcome), `nonfinite` (successful samples whose metric is
+        **Returns:** a dict: `metric`, `count` (samples), `failed` (unsuccessful samples),
+        `status` (count per outcome), `nonfinite` (successful samples whose metric is
         inf/NaN, e.g. not settled), `finite`, `mean`, `std` (sample standard deviation,
         `ddof=1`), `min`, `max`, `quantiles` ({probability: value}), `worst` (failed and
-        non-finite count as inf), `worst_index`, `success_rate`, `tolerance`, `time_limit`.
-        Statistics of an empty selection are NaN.
+        non-finite count as inf), `worst_index`, `success_rate`, `time_limit`. Statistics of
+        an empty selection are NaN.
+
+        To summarise a settling time at another tolerance, record it as another metric
+        (`SettlingTime(signal, tol)`), or compute it from the kept trajectories.
         """
         quantiles = _check_quantiles(quantiles)
         if time_limit is not None:
@@ -171,7 +159,7 @@ class MonteCarloResult(eqx.Module):
                 raise ValueError(
                     f"MonteCarloResult.summary: `time_limit` must be a number, got {time_limit!r}."
                 )
-        values = self._values(metric, tolerance)
+        values = self._values(metric, component)
         ok = to_host(self.successful).astype(bool)
         finite = ok & np.isfinite(values)
         selected = values[finite]
@@ -183,10 +171,10 @@ class MonteCarloResult(eqx.Module):
             return float(fn(selected)) if selected.size >= minimum else math.nan
 
         return {
-            "metric": metric,
+            "metric": metric if component is None else f"{metric}{list(np.atleast_1d(component))}",
             "count": self.n,
             "failed": int(np.sum(~ok)),
-            "results": self.result_counts(),
+            "status": self.status_counts(),
             "nonfinite": int(np.sum(ok & ~np.isfinite(values))),
             "finite": int(np.sum(finite)),
             "mean": stat(np.mean),
@@ -200,29 +188,43 @@ class MonteCarloResult(eqx.Module):
             "worst": float(worst_values[worst_index]),
             "worst_index": worst_index,
             "success_rate": float(np.mean(success)),
-            "tolerance": tolerance,
             "time_limit": time_limit,
         }
+
+    def _rows(self, metrics: Sequence[str] | None) -> list[tuple[str, str, tuple | None]]:
+        """(label, metric, component) for every metric, components expanded."""
+        names = list(self.metrics) if metrics is None else list(metrics)
+        rows = []
+        for name in names:
+            shape = np.shape(self.metrics[name])[1:] if name in self.metrics else ()
+            if not shape:
+                rows.append((name, name, None))
+                continue
+            for index in np.ndindex(shape):
+                label = f"{name}[{', '.join(map(str, index))}]"
+                rows.append((label, name, index))
+        return rows
 
     def to_dict(
         self, *, time_limit: float | None = None, quantiles: Sequence[float] = (0.05, 0.5, 0.95)
     ) -> dict:
-        """A JSON-ready summary of every scalar metric (non-finite numbers become `None`).
+        """A JSON-ready summary of every metric (non-finite numbers become `None`).
 
-        `{"count", "failed", "results", "metrics": {name: summary(name, ...)}}`; `time_limit`
-        applies to `settling_time` only. Quantile keys become strings.
+        `{"count", "failed", "status", "metrics": {label: summary(...)}}`, one entry per
+        component for metrics with several; `time_limit` applies to `settling_time` only.
+        Quantile keys become strings.
         """
         out: dict = {
             "count": self.n,
             "failed": int(np.sum(~to_host(self.successful))),
-            "results": self.result_counts(),
+            "status": self.status_counts(),
             "metrics": {},
         }
-        for name in self.metrics:
+        for label, name, index in self._rows(None):
             limit = time_limit if name == "settling_time" else None
-            summary = self.summary(name, time_limit=limit, quantiles=quantiles)
+            summary = self.summary(name, component=index, time_limit=limit, quantiles=quantiles)
             summary["quantiles"] = {str(q): v for q, v in summary["quantiles"].items()}
-            out["metrics"][name] = summary
+            out["metrics"][label] = summary
         return _json_safe(out)
 
     def table(
@@ -232,17 +234,17 @@ class MonteCarloResult(eqx.Module):
         time_limit: float | None = None,
         quantiles: Sequence[float] = (0.05, 0.5, 0.95),
     ) -> str:
-        """A Markdown table, one row per metric (default: all): count, failed, not finite,
-        mean, std, quantiles, worst and success rate (`time_limit` applies to
+        """A Markdown table, one row per metric (and component; default: all): count, failed,
+        not finite, mean, std, quantiles, worst and success rate (`time_limit` applies to
         `settling_time`)."""
-        names = list(self.metrics) if metrics is None else list(metrics)
         rows = {
-            name: self.summary(
+            label: self.summary(
                 name,
+                component=index,
                 time_limit=time_limit if name == "settling_time" else None,
                 quantiles=quantiles,
             )
-            for name in names
+            for label, name, index in self._rows(metrics)
         }
         return _markdown(rows, "metric", quantiles)
 
@@ -274,7 +276,7 @@ def summary_table(
     results: Mapping[str, MonteCarloResult],
     metric: str = "settling_time",
     *,
-    tolerance: float | None = None,
+    component: int | tuple[int, ...] | None = None,
     time_limit: float | None = None,
     quantiles: Sequence[float] = (0.05, 0.5, 0.95),
 ) -> str:
@@ -287,7 +289,7 @@ def summary_table(
     """
     quantiles = _check_quantiles(quantiles)
     rows = {
-        name: r.summary(metric, tolerance=tolerance, time_limit=time_limit, quantiles=quantiles)
+        name: r.summary(metric, component=component, time_limit=time_limit, quantiles=quantiles)
         for name, r in results.items()
     }
     return _markdown(rows, "batch", quantiles)

@@ -1,7 +1,9 @@
-"""Disturbance observers: internal states integrated with the plant through a composite
-controller ([`jaxatt.controllers.ObserverCompensated`][])."""
+"""Disturbance observers, integrated in their own slot of the closed loop."""
 
-from ._base import AbstractObserver as AbstractObserver
+from ._base import (
+    AbstractObserver as AbstractObserver,
+    ObservedMeasurement as ObservedMeasurement,
+)
 from ._super_twisting import (
     SuperTwistingGainCheck as SuperTwistingGainCheck,
     SuperTwistingObserver as SuperTwistingObserver,

@@ -1,4 +1,4 @@
-"""The observer interface."""
+"""The observer interface, and the measurement a controller sees when a loop has an observer."""
 
 import abc
 
@@ -8,22 +8,41 @@ from jaxtyping import Array, Float, PyTree
 from .._custom_types import RealScalarLike
 
 
+class ObservedMeasurement(eqx.Module):
+    """What a controller reads in a closed loop with an observer, if it asks for it.
+
+    - `measurement`: the plant's measurement.
+    - `estimate`: the observer's current estimate (e.g. a disturbance torque [N m]).
+
+    Controllers whose `measurement_type` is `ObservedMeasurement` (e.g.
+    [`jaxatt.controllers.ObserverCompensated`][]) receive this; every other controller
+    receives the plant's measurement alone.
+    """
+
+    measurement: PyTree[Array]
+    estimate: PyTree[Array]
+
+
 class AbstractObserver(eqx.Module):
-    """A disturbance observer whose internal state is integrated alongside the plant.
+    """A state observer whose internal state is integrated alongside the plant.
 
-    The same shape as a controller ([`jaxatt.controllers.AbstractController`][]):
+    It lives in its own slot of the closed loop (`ClosedLoop(..., observer=...)`), reads the
+    plant's measurement and the commanded control, and publishes an estimate.
 
+    **Required:**
     - `init(t0, measurement) -> state`: the observer's state at `t0`;
+    - `estimate(t, measurement, state) -> estimate`: the current estimate (e.g. a disturbance
+      torque [N m]), handed to controllers that ask for it (see [`ObservedMeasurement`][]);
     - `__call__(t, measurement, control, state) -> state_dot`: the state derivative, given the
-      measurement (the plant state) and the control torque applied to the plant;
-    - `estimate(state) -> d_hat`: the current disturbance-torque estimate [N m], the quantity a
-      composite controller subtracts;
-    - `diagnostics(t, measurement, state) -> dict`: named signals to record (`{}` if none).
+      measurement and the commanded control;
+    - `measurement_type`: the measurement class it reads.
 
-    `measurement_type` is the plant-state class the observer reads (`object` when any state
-    with the fields it uses will do). Observers are combined with any attitude controller by
-    [`jaxatt.controllers.ObserverCompensated`][], which integrates the observer state as part
-    of the controller state.
+    **Optional hooks** (defaults do nothing): `update(t, measurement, state) -> state` after
+    each completed step (or sample instant, under a zero-order hold), and
+    `signals(t, measurement, state) -> dict` recorded at the save times.
+
+    Under a zero-order hold the observer is part of the sampled flight software: its
+    derivative is held over each period with the controller's.
     """
 
     measurement_type: eqx.AbstractClassVar[type]
@@ -31,6 +50,12 @@ class AbstractObserver(eqx.Module):
     @abc.abstractmethod
     def init(self, t0: RealScalarLike, measurement: PyTree[Array]) -> PyTree[Array]:
         """Internal state at the initial time."""
+
+    @abc.abstractmethod
+    def estimate(
+        self, t: RealScalarLike, measurement: PyTree[Array], state: PyTree[Array]
+    ) -> PyTree[Array]:
+        """The estimate carried by `state`."""
 
     @abc.abstractmethod
     def __call__(
@@ -42,12 +67,16 @@ class AbstractObserver(eqx.Module):
     ) -> PyTree[Array]:
         """Time derivative of the internal state."""
 
-    @abc.abstractmethod
-    def estimate(self, state: PyTree[Array]) -> Float[Array, " m"]:
-        """The disturbance estimate carried by `state`, in the units of the control."""
+    def update(
+        self, t: RealScalarLike, measurement: PyTree[Array], state: PyTree[Array]
+    ) -> PyTree[Array]:
+        """Discrete map after each completed step or sample instant (default: none)."""
+        del t, measurement
+        return state
 
-    @abc.abstractmethod
-    def diagnostics(
+    def signals(
         self, t: RealScalarLike, measurement: PyTree[Array], state: PyTree[Array]
     ) -> dict[str, Array]:
-        """Named internal signals to record."""
+        """Named internal signals to record (default: none)."""
+        del t, measurement, state
+        return {}

@@ -36,7 +36,13 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
 from .._custom_types import RealScalarLike, Vec3
-from .._validation import check, check_nonnegative, check_positive, check_spd
+from .._validation import (
+    check,
+    check_gain_shape,
+    check_nonnegative,
+    check_positive,
+    check_spd,
+)
 from ..numerics import sig_pow, sign, solve3
 from ._base import AbstractObserver
 
@@ -98,7 +104,7 @@ def super_twisting_gain_condition(
     rho1 = check_positive(where, "rho1", rho1)
     sign_gain = check_positive(where, "sign_gain", sign_gain)
     bound = check_nonnegative(where, "perturbation_bound", perturbation_bound)
-    p = check(where, "p", p, lambda x: (x >= 0) & (x < 1), "must lie in [0, 1)")
+    p = check(where, "p", p, lambda xp, x: (x >= 0) & (x < 1), "must lie in [0, 1)")
     rho1, sign_gain, bound = jnp.broadcast_arrays(rho1, sign_gain, bound)
     margin = sign_gain - bound
     ok = margin > 0
@@ -139,10 +145,12 @@ class SuperTwistingObserver(AbstractObserver):
     - `acceleration`: use reading (B) (static: it changes the equations).
 
     The state starts at $\hat\omega(t_0) = \omega(t_0)$ (the measured rate) and
-    $\hat d(t_0) = 0$. The observer reads `measurement.omega` (any rigid-body plant state) and
-    the torque handed to it, which [`jaxatt.controllers.ObserverCompensated`][] sets to the
-    commanded torque: with an actuator that saturates, the applied torque differs and the
-    difference is estimated as part of the disturbance.
+    $\hat d(t_0) = 0$. The observer reads `measurement.omega` (any rigid-body measurement) and
+    the commanded torque (the closed loop hands it the controller's command): with an
+    actuator that saturates, the applied torque differs and the difference is estimated as
+    part of the disturbance. Place it in the closed loop's observer slot and compensate with
+    [`jaxatt.controllers.ObserverCompensated`][]:
+    `ClosedLoop(plant, ObserverCompensated(law), observer=SuperTwistingObserver(J, 4.0, 2.0))`.
 
     **Discretization:** the estimate chatters with an amplitude proportional to the step: in
     reading (A) roughly $\rho_2\,dt$ [N m] (2e-3 N m for the paper's $\rho_2 = 2$ at
@@ -175,11 +183,7 @@ class SuperTwistingObserver(AbstractObserver):
         self.rho1 = check_positive("SuperTwistingObserver", "rho1", rho1)
         self.rho2 = check_positive("SuperTwistingObserver", "rho2", rho2)
         for name, value in (("rho1", self.rho1), ("rho2", self.rho2)):
-            if value.shape not in ((), (3,)):
-                raise ValueError(
-                    f"SuperTwistingObserver: `{name}` must be a scalar or have shape (3,), "
-                    f"got shape {value.shape}."
-                )
+            check_gain_shape("SuperTwistingObserver", name, value)
         self.acceleration = bool(acceleration)
 
     def init(self, t0: RealScalarLike, measurement) -> SuperTwistingState:
@@ -202,17 +206,17 @@ class SuperTwistingObserver(AbstractObserver):
         d_hat_dot = self.rho2 * sign(error)
         return SuperTwistingState(omega_hat=omega_hat_dot, d_hat=d_hat_dot)
 
-    def estimate(self, state: SuperTwistingState) -> Vec3:
+    def estimate(self, t: RealScalarLike, measurement, state: SuperTwistingState) -> Vec3:
         """The disturbance-torque estimate [N m]: $\\hat d$ (A) or $J\\hat d$ (B)."""
+        del t, measurement
         if self.acceleration:
             return self.inertia @ state.d_hat
         return state.d_hat
 
-    def diagnostics(self, t: RealScalarLike, measurement, state: SuperTwistingState) -> dict:
+    def signals(self, t: RealScalarLike, measurement, state: SuperTwistingState) -> dict:
         """`d_hat` (the torque estimate [N m]) and `omega_hat_error` ($\\omega - \\hat\\omega$)."""
-        del t
         return {
-            "d_hat": self.estimate(state),
+            "d_hat": self.estimate(t, measurement, state),
             "omega_hat_error": measurement.omega - state.omega_hat,
         }
 

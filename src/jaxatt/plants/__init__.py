@@ -1,6 +1,16 @@
-"""Plants: vector fields of the controlled systems, with their uncertainty and disturbance
-signals."""
+"""Plants: vector fields of the controlled systems, their measurements and named signals.
 
+The time signals of `jaxatt.signals` (`Constant`, `Sinusoid`, `Pulse`, `Sum`), used for
+disturbances and inertia perturbations, are re-exported here for convenience.
+"""
+
+from ..signals import (
+    AbstractSignal as AbstractSignal,
+    Constant as Constant,
+    Pulse as Pulse,
+    Sinusoid as Sinusoid,
+    Sum as Sum,
+)
 from ._base import AbstractPlant as AbstractPlant
 from ._rigid_body import (
     MRPState as MRPState,
@@ -8,11 +18,4 @@ from ._rigid_body import (
     RigidBody as RigidBody,
     RigidBodyMRP as RigidBodyMRP,
     RigidBodyQuaternion as RigidBodyQuaternion,
-)
-from ._signals import (
-    AbstractSignal as AbstractSignal,
-    Constant as Constant,
-    Pulse as Pulse,
-    Sinusoid as Sinusoid,
-    Sum as Sum,
 )

@@ -87,14 +87,32 @@ def plot_envelope(
     return ax
 
 
-def _legend_label(name: str, values: np.ndarray, missing: str) -> str:
-    bad = int(np.sum(~np.isfinite(values)))
-    return f"{name} ({bad} {missing})" if bad else name
+def _legend_label(
+    name: str, values: np.ndarray, missing: str, failed: np.ndarray | None = None
+) -> str:
+    failed = np.zeros(values.shape, bool) if failed is None else failed
+    parts = []
+    if failed.any():
+        parts.append(f"{int(failed.sum())} failed")
+    unsettled = int(np.sum(~np.isfinite(values) & ~failed))
+    if unsettled:
+        parts.append(f"{unsettled} {missing}")
+    return f"{name} ({', '.join(parts)})" if parts else name
+
+
+def _values_and_failures(values, metric: str) -> tuple[np.ndarray, np.ndarray | None]:
+    from ..montecarlo import MonteCarloResult
+
+    if isinstance(values, MonteCarloResult):
+        failed = ~_host(values.successful).astype(bool).reshape(-1)
+        return _host(values.metrics[metric]).reshape(-1), failed
+    return _host(values).reshape(-1), None
 
 
 def plot_settling_distribution(
-    results: Mapping[str, ArrayLike],
+    results: Mapping[str, object],
     *,
+    metric: str = "settling_time",
     kind: str = "cdf",
     ax: Axes | None = None,
     xlabel: str = "settling time [s]",
@@ -103,12 +121,14 @@ def plot_settling_distribution(
 
     With `kind="cdf"` the curve of each batch rises by $1/n$ at every finite value, so it ends
     at the fraction of samples with a finite value; samples that never settled (`inf`) or
-    failed (`nan`) are not drawn and are counted in the legend ("3 not settled"). With
+    failed are not drawn and are counted in the legend ("2 failed, 3 not settled"). With
     `kind="hist"` the finite values are binned on common edges (step histograms).
 
     **Arguments:**
-    - `results`: label -> values of shape `(n,)` (e.g.
-      `{"M1": result.metrics["settling_time"], ...}`).
+    - `results`: label -> a [`jaxatt.montecarlo.MonteCarloResult`][] (its `metric` is drawn
+      and its failed samples are counted as failed), or label -> values of shape `(n,)`
+      (non-finite values are counted as not settled).
+    - `metric`: the metric drawn from `MonteCarloResult`s.
     - `kind`: `"cdf"` or `"hist"`.
     - `ax`: axes to draw on; a new figure when `None`.
     - `xlabel`: the x-axis label.
@@ -119,14 +139,18 @@ def plot_settling_distribution(
         raise ValueError(
             f"plot_settling_distribution: `kind` must be 'cdf' or 'hist', got {kind!r}."
         )
-    data = {str(name): _host(values).reshape(-1) for name, values in results.items()}
+    data = {str(name): _values_and_failures(values, metric) for name, values in results.items()}
     if not data:
         raise ValueError("plot_settling_distribution: `results` must not be empty.")
     ax = _new_axes(ax)
-    finite_all = np.concatenate([v[np.isfinite(v)] for v in data.values()])
+    finite_all = np.concatenate(
+        [v[np.isfinite(v) & (True if f is None else ~f)] for v, f in data.values()]
+    )
     edges = np.histogram_bin_edges(finite_all, bins=30) if finite_all.size else None
-    for name, values in data.items():
-        label = _legend_label(name, values, "not settled")
+    for name, (values, failed) in data.items():
+        label = _legend_label(name, values, "not settled", failed)
+        if failed is not None:
+            values = np.where(failed, np.nan, values)
         finite = np.sort(values[np.isfinite(values)])
         if finite.size == 0:
             ax.plot([], [], label=label)

@@ -95,16 +95,15 @@ def plot_signal(
 
 
 def plot_attitude_error(traj: Trajectory, *, ax: Axes | None = None) -> Axes:
-    """Vector part of the attitude error (error quaternion $e_v$, or the error MRP)."""
-    error = np.asarray(traj.signals["attitude_error"])
-    quaternion = error.shape[-1] == 4
+    """The attitude-error vector: the signal `attitude_error_vector` that attitude plants
+    publish ($e_v$, the vector part of the error quaternion, for quaternion plants;
+    $\\sigma_e$, the error MRP, for MRP plants)."""
     return plot_signal(
         traj,
-        "attitude_error",
+        "attitude_error_vector",
         ax=ax,
-        components=slice(1, 4) if quaternion else None,
-        labels=[f"$e_{{v,{a}}}$" if quaternion else f"$\\sigma_{{e,{a}}}$" for a in _AXIS_LABELS],
-        ylabel="attitude error (quaternion vector part)" if quaternion else "attitude error (MRP)",
+        labels=[f"$e_{{{a}}}$" for a in _AXIS_LABELS],
+        ylabel="attitude-error vector",
     )
 
 

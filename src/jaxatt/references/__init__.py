@@ -1,5 +1,9 @@
-"""Desired attitude trajectories $q_d(t)$, $\\omega_d(t)$, $\\dot\\omega_d(t)$."""
+"""Desired trajectories: attitude references and the reference interface."""
 
-from ._base import AbstractReference as AbstractReference, AttitudeReference as AttitudeReference
+from ._base import (
+    AbstractReference as AbstractReference,
+    AttitudeReference as AttitudeReference,
+    NoReference as NoReference,
+)
 from ._constant import ConstantAttitude as ConstantAttitude
 from ._integrated import IntegratedReference as IntegratedReference

@@ -1,5 +1,7 @@
 """A constant desired attitude (regulation)."""
 
+from typing import ClassVar
+
 import jax.numpy as jnp
 from jaxtyping import ArrayLike, Float
 
@@ -16,6 +18,7 @@ class ConstantAttitude(AbstractReference):
     """
 
     q_d: Quaternion
+    output_type: ClassVar[type] = AttitudeReference
 
     def __init__(self, q_d: Float[ArrayLike, "4"] | None = None):
         if q_d is None:

@@ -1,13 +1,15 @@
 r"""A desired attitude obtained by integrating a prescribed angular velocity."""
 
+from typing import ClassVar
+
 import jax
 import jax.numpy as jnp
 from jaxtyping import ArrayLike, Float
 
 from .._custom_types import Quaternion, RealScalarLike
 from .._validation import check_unit_quaternion
-from ..plants._signals import AbstractSignal, check_signal_shape
 from ..rotations import quat_kinematics
+from ..signals import AbstractSignal, check_signal_shape
 from ._base import AbstractReference, AttitudeReference
 
 
@@ -24,11 +26,12 @@ class IntegratedReference(AbstractReference):
 
     **Arguments:**
     - `q_d0`: desired attitude at `t0`, a unit quaternion.
-    - `omega_d`: signal of shape (3,) [rad/s], e.g. a [`jaxatt.plants.Sinusoid`][].
+    - `omega_d`: signal of shape (3,) [rad/s], e.g. a [`jaxatt.signals.Sinusoid`][].
     """
 
     q_d0: Quaternion
     omega_d: AbstractSignal
+    output_type: ClassVar[type] = AttitudeReference
 
     def __init__(self, q_d0: Float[ArrayLike, "4"], omega_d: AbstractSignal):
         self.q_d0 = check_unit_quaternion("IntegratedReference", "q_d0", q_d0)

@@ -50,8 +50,8 @@ def mrp_shadow(sigma: Float[ArrayLike, "3"]) -> Float[Array, "3"]:
     """
     sigma = jnp.asarray(sigma)
     s2 = jnp.dot(sigma, sigma)
-    nonzero = s2 > 0
-    return jnp.where(nonzero, -sigma / jnp.where(nonzero, s2, 1), 0)
+    zero = s2 == 0  # (not `> 0`: a NaN MRP must stay NaN)
+    return jnp.where(zero, 0, -sigma / jnp.where(zero, 1, s2))
 
 
 def mrp_switch(sigma: Float[ArrayLike, "3"], threshold: RealScalarLike = 1.0) -> Float[Array, "3"]:
@@ -70,7 +70,7 @@ def mrp_switch(sigma: Float[ArrayLike, "3"], threshold: RealScalarLike = 1.0) ->
     **Returns:** an MRP of the same attitude, dtype of `sigma`.
     """
     sigma = jnp.asarray(sigma)
-    threshold = check("mrp_switch", "threshold", threshold, lambda t: t >= 1, "must be >= 1")
+    threshold = check("mrp_switch", "threshold", threshold, lambda xp, t: t >= 1, "must be >= 1")
     s2 = jnp.dot(sigma, sigma)
     return jnp.where(s2 > threshold * threshold, mrp_shadow(sigma), sigma)
 

@@ -54,8 +54,8 @@ def quat_inverse(q: Float[ArrayLike, "4"]) -> Float[Array, "4"]:
     """
     q = jnp.asarray(q)
     norm_sq = jnp.dot(q, q)
-    nonzero = norm_sq > 0
-    return jnp.where(nonzero, quat_conjugate(q) / jnp.where(nonzero, norm_sq, 1), 0)
+    zero = norm_sq == 0  # (not `> 0`: a NaN quaternion must stay NaN)
+    return jnp.where(zero, 0, quat_conjugate(q) / jnp.where(zero, 1, norm_sq))
 
 
 def quat_normalize(q: Float[ArrayLike, "4"]) -> Float[Array, "4"]:
@@ -139,9 +139,10 @@ def quat_angle(q: Float[ArrayLike, "4"]) -> Float[Array, ""]:
     sin_half = safe_norm(q[1:])
     cos_half = q[0] * sign(q[0])
     # Double where: atan2(0, 0) has a 0/0 derivative; only the zero quaternion reaches it.
-    nonzero = (sin_half > 0) | (cos_half > 0)
-    half = jnp.arctan2(sin_half, jnp.where(nonzero, cos_half, 1))
-    return 2 * jnp.where(nonzero, half, 0)
+    # (Tested as "both zero", so that a NaN quaternion gives a NaN angle, never 0.)
+    zero = (sin_half == 0) & (cos_half == 0)
+    half = jnp.arctan2(sin_half, jnp.where(zero, 1, cos_half))
+    return 2 * jnp.where(zero, 0, half)
 
 
 def quat_rotate(q: Float[ArrayLike, "4"], v: Float[ArrayLike, "3"]) -> Float[Array, "3"]:

@@ -37,13 +37,16 @@ import numpy as np
 
 from ..controllers import NormRobustTerm, SlidingModeTracking
 from ..metrics import chattering, control_effort, peak, settling_time
+from ..montecarlo import run_batch
 from ..numerics import safe_norm
-from ..plants import QuaternionState, RigidBodyQuaternion, Sinusoid
+from ..plants import QuaternionState, RigidBodyQuaternion
 from ..reaching import AbstractReachingLaw, DoublePower, Exponential, TwoPhasePower
 from ..references import IntegratedReference
-from ..simulation import ClosedLoop, Saturation, Trajectory, simulate
+from ..signals import Sinusoid
+from ..simulation import ClosedLoop, Saturation, Simulation, Trajectory
 from ..sliding import LinearSurface
 from . import _xia2011
+from ._protocol import Scenario
 
 
 TITLE = "Chen 2022: two-phase power reaching law, attitude tracking (M1/M2/M3, D1/D2)"
@@ -115,12 +118,17 @@ def build(controller: str = "M1", *, literal: bool = False, saturation: bool = T
     return ClosedLoop(plant, law, reference(), actuator)
 
 
-@eqx.filter_jit
 def simulate_cases(
     loop: ClosedLoop, x0s: QuaternionState, horizon: float = HORIZON, dt: float = DT
 ) -> Trajectory:
-    """Simulate one closed loop from a batch of initial states (vmap), saving every step."""
-    return jax.vmap(lambda x0: simulate(loop, x0, 0.0, horizon, dt=dt, throw=False))(x0s)
+    """Simulate one closed loop from a batch of initial states (the batch runner, saving every
+    step); returns the batched trajectory (failures reported in its `status`)."""
+    return _simulate_cases(loop, x0s, Simulation(0.0, horizon, dt))
+
+
+@eqx.filter_jit
+def _simulate_cases(loop: ClosedLoop, x0s: QuaternionState, sim: Simulation) -> Trajectory:
+    return run_batch(loop, x0s, sim, {}, keep_trajectories=True).trajectories
 
 
 def trajectory_metrics(traj: Trajectory) -> dict[str, jax.Array]:
@@ -274,3 +282,12 @@ def _write_figures(out: pathlib.Path, trajs: dict[str, Trajectory]) -> None:
             fig.suptitle(f"Fig. {6 + i} equivalent: $s_{i + 1}$ from D1 and D2")
             fig.savefig(out / f"fig{6 + i}_s{i + 1}_D1_vs_D2.png")
             plt.close(fig)
+
+
+SCENARIO = Scenario(
+    name="chen2022",
+    title=TITLE,
+    build=build,
+    reproduce=reproduce,
+    metrics=trajectory_metrics,
+)

@@ -22,12 +22,13 @@ import numpy as np
 
 from ..controllers import MRPPD
 from ..metrics import control_effort, overshoot, peak, settling_time
-from ..montecarlo import rates_in_box, uniform_attitudes
+from ..montecarlo import mrp_states, run_batch
 from ..numerics import safe_norm
 from ..plants import MRPState, RigidBodyMRP
 from ..rotations import mrp_from_quat
-from ..simulation import ClosedLoop, Saturation, Trajectory, simulate
+from ..simulation import ClosedLoop, Saturation, Simulation, Trajectory, simulate
 from . import _xia2011
+from ._protocol import Scenario
 
 
 TITLE = "MRP PD regulation of the Xia 2011 spacecraft (built-in demo)"
@@ -39,17 +40,20 @@ SETTLING_TOLERANCE = 1e-2
 """Settling tolerance on the error MRP norm ||sigma_e|| (a rotation of 4 atan(0.01) = 2.3 deg)."""
 
 
-def build(k1: float = 60.0, k2: float = 50.0) -> tuple[ClosedLoop, MRPState]:
-    """The closed loop and its initial state (attitude D1, at rest)."""
+def build(k1: float = 60.0, k2: float = 50.0) -> ClosedLoop:
+    """The closed loop (see [`initial_state`][] for the nominal start)."""
     plant = RigidBodyMRP(
         _xia2011.nominal_inertia(),
         _xia2011.inertia_perturbation(),
         _xia2011.disturbance(),
         shadow_switching=True,
     )
-    loop = ClosedLoop(plant, MRPPD(k1, k2), actuator=Saturation(TORQUE_LIMIT))
-    x0 = MRPState(mrp_from_quat(_xia2011.initial_attitude_d1()), jnp.zeros(3))
-    return loop, x0
+    return ClosedLoop(plant, MRPPD(k1, k2), actuator=Saturation(TORQUE_LIMIT))
+
+
+def initial_state() -> MRPState:
+    """Attitude D1 at rest."""
+    return MRPState(mrp_from_quat(_xia2011.initial_attitude_d1()), jnp.zeros(3))
 
 
 def trajectory_metrics(traj: Trajectory) -> dict[str, jax.Array]:
@@ -67,21 +71,16 @@ def trajectory_metrics(traj: Trajectory) -> dict[str, jax.Array]:
 def random_initial_states(key, n: int, max_rate: float = 0.05) -> MRPState:
     """`n` Haar-uniform attitudes with rates uniform in the box [-max_rate, max_rate]^3 [rad/s].
 
-    Drawn with [`jaxatt.montecarlo.uniform_attitudes`][] (canonical, so ||sigma|| <= 1)
-    and [`jaxatt.montecarlo.rates_in_box`][] from the two halves of `jr.split(key)`.
+    [`jaxatt.montecarlo.mrp_states`][]: Haar-uniform attitudes (canonical, so
+    ||sigma|| <= 1) and box rates, from the two halves of `jr.split(key)`.
     """
-    k_q, k_w = jr.split(key)
-    q = uniform_attitudes(k_q, n)
-    return MRPState(jax.vmap(mrp_from_quat)(q), rates_in_box(k_w, n, max_rate))
+    return mrp_states(key, n, max_rate=max_rate)
 
 
 @eqx.filter_jit
-def _batch(loop: ClosedLoop, x0s: MRPState, dt: float):
-    def one(x0):
-        traj = simulate(loop, x0, 0.0, HORIZON, dt=dt, save_every=round(0.1 / dt), throw=False)
-        return traj, trajectory_metrics(traj)
-
-    return jax.vmap(one)(x0s)
+def _batch(loop: ClosedLoop, x0s: MRPState, sim: Simulation):
+    result = run_batch(loop, x0s, sim, trajectory_metrics, keep_trajectories=True)
+    return result.trajectories, result.metrics
 
 
 def reproduce(
@@ -107,11 +106,12 @@ def reproduce(
     dt = 1e-2 if short else 1e-3
     n = 16 if short else batch
     bar = tqdm(total=2, desc="rigid_body_pd", disable=not progress)
-    loop, x0 = build()
+    loop, x0 = build(), initial_state()
     traj = simulate(loop, x0, 0.0, HORIZON, dt=dt, save_every=round(0.02 / dt))
     nominal = {k: float(v) for k, v in trajectory_metrics(traj).items()}
     bar.update()
-    trajs, batch_metrics = _batch(loop, random_initial_states(jr.key(0), n), dt)
+    sim = Simulation(0.0, HORIZON, dt, save_every=round(0.1 / dt))
+    trajs, batch_metrics = _batch(loop, random_initial_states(jr.key(0), n), sim)
     bar.update()
     bar.close()
     times = np.asarray(batch_metrics["settling_time"])
@@ -153,3 +153,12 @@ def reproduce(
         plt.close(fig)
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
     return metrics
+
+
+SCENARIO = Scenario(
+    name="rigid_body_pd",
+    title=TITLE,
+    build=build,
+    reproduce=reproduce,
+    metrics=trajectory_metrics,
+)

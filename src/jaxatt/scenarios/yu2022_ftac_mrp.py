@@ -9,8 +9,8 @@ DOI 10.13195/j.kzyjc.2021.0897 (SPEC.md, seed 004).
 + d(t)$ with $d = (0.002\sin(t+5), 0.002\cos(2t+3), 0.003\sin(3t+2))$ N m, from
 $\sigma(0) = (0.5, -0.4, 0.9)$ ($\|\sigma\| = 1.1045$, a 191.4 deg rotation, outside the unit
 MRP ball: no shadow switching, as in the paper) and $\omega(0) = (-0.21, -0.23, -0.25)$ rad/s.
-Controllers, each wrapped in [`jaxatt.controllers.ObserverCompensated`][] with the
-super-twisting observer $\rho_1 = 4$, $\rho_2 = 2$:
+Controllers, each wrapped in [`jaxatt.controllers.ObserverCompensated`][] and flown with the
+super-twisting observer $\rho_1 = 4$, $\rho_2 = 2$ in the closed loop's observer slot:
 
 - FTAC, eq. (29): [`jaxatt.controllers.RateConstrainedFiniteTimeMRP`][]`(0.03, 0.01, 0.5, 0.4)`,
   so $\alpha_2 = 2/3$ and $M = 0.4$ rad/s;
@@ -46,10 +46,10 @@ super-twisting observer $\rho_1 = 4$, $\rho_2 = 2$:
 
 **Monte Carlo (acceptance).** [`sample_admissible_states`][] draws attitudes uniformly in the
 ball $\|\sigma\| < 0.9$ and rates with a uniformly random barrier ratio in $[0, 0.99)$ along a
-random direction; [`rate_bound_monte_carlo`][] simulates FTAC (without the opt-out) and FT,
-both with the observer, from the same batch over 5 s (all rate peaks occur within 4 s) with
-RK4 at dt = 2e-3 s, well inside the step bound of `RateConstrainedFiniteTimeMRP` for an
-initial relative gap of 0.01 or more (about 7e-3 s).
+random direction ([`jaxatt.montecarlo.barrier_states`][]); [`rate_bound_monte_carlo`][]
+simulates FTAC (without the opt-out) and FT, both with the observer, from the same batch over
+5 s (all rate peaks occur within 4 s) with RK4 at dt = 2e-3 s, well inside the step bound of
+`RateConstrainedFiniteTimeMRP` for an initial relative gap of 0.01 or more (about 7e-3 s).
 """
 
 import json
@@ -70,10 +70,13 @@ from ..controllers import (
     homogeneous_exponent,
 )
 from ..metrics import max_abs, peak, settling_time
+from ..montecarlo import barrier_states, run_batch
 from ..numerics import safe_norm
 from ..observers import SuperTwistingObserver
-from ..plants import MRPState, RigidBodyMRP, Sinusoid
-from ..simulation import RESULTS, ClosedLoop, Trajectory, simulate
+from ..plants import MRPState, RigidBodyMRP
+from ..signals import Sinusoid
+from ..simulation import ClosedLoop, Simulation, Status, Trajectory
+from ._protocol import Scenario
 
 
 TITLE = "Yu 2022: finite-time MRP stabilization under rate constraints (FTAC/FT/PD + observer)"
@@ -162,7 +165,9 @@ def build(
     """
     law = controller(name, allow_inadmissible=allow_inadmissible)
     if compensate:
-        law = ObserverCompensated(law, observer(acceleration=acceleration))
+        return ClosedLoop(
+            plant(), ObserverCompensated(law), observer=observer(acceleration=acceleration)
+        )
     return ClosedLoop(plant(), law)
 
 
@@ -198,14 +203,17 @@ def gain_conditions() -> dict:
     return out
 
 
-@eqx.filter_jit
 def simulate_batch(
     loop: ClosedLoop, x0s: MRPState, horizon: float, dt: float, save_every: int
 ) -> Trajectory:
-    """Simulate one closed loop from a batch of initial states (`vmap`, `throw=False`)."""
-    return jax.vmap(
-        lambda x0: simulate(loop, x0, 0.0, horizon, dt=dt, save_every=save_every, throw=False)
-    )(x0s)
+    """Simulate one closed loop from a batch of initial states (the batch runner); failures
+    are reported per sample in the returned trajectory's `status`."""
+    return _simulate_batch(loop, x0s, Simulation(0.0, horizon, dt, save_every=save_every))
+
+
+@eqx.filter_jit
+def _simulate_batch(loop: ClosedLoop, x0s: MRPState, sim: Simulation) -> Trajectory:
+    return run_batch(loop, x0s, sim, {}, keep_trajectories=True).trajectories
 
 
 def _save_every(dt: float) -> int:
@@ -271,15 +279,14 @@ def sample_admissible_states(
     $\\sum_i|w_i|^{1+\\alpha_2} = 1$ and the barrier ratio $r$ uniform in `[0, ratio_max)`, so
     $\\chi(\\omega) = r M^{1+\\alpha_2}$.
     """
-    k_dir, k_rad, k_w, k_r = jr.split(key, 4)
-    direction = jr.normal(k_dir, (n, 3))
-    direction = direction / jnp.linalg.norm(direction, axis=1, keepdims=True)
-    sigma = direction * sigma_max * jr.uniform(k_rad, (n, 1)) ** (1 / 3)
-    exponent = 1 + float(homogeneous_exponent(ALPHA1))
-    w = jr.normal(k_w, (n, 3))
-    w = w / jnp.sum(jnp.abs(w) ** exponent, axis=1, keepdims=True) ** (1 / exponent)
-    ratio = ratio_max * jr.uniform(k_r, (n, 1))
-    return MRPState(sigma, RATE_LIMIT * w * ratio ** (1 / exponent))
+    return barrier_states(
+        key,
+        n,
+        max_sigma=sigma_max,
+        rate_limit=RATE_LIMIT,
+        exponent=1 + float(homogeneous_exponent(ALPHA1)),
+        max_ratio=ratio_max,
+    )
 
 
 def rate_bound_monte_carlo(
@@ -293,7 +300,7 @@ def rate_bound_monte_carlo(
     """Simulate each controller (with the observer) from the same random admissible batch.
 
     **Returns:** per controller, `max_abs_omega` (n, 3) over the saved times (every 1e-2 s),
-    `violated` (n,) ($\\max_{t,i}|\\omega_i| \\ge M$), `result` (n,) (`RESULTS` values, e.g.
+    `violated` (n,) ($\\max_{t,i}|\\omega_i| \\ge M$), `status` (n,) (`Status` codes, e.g.
     FTAC's barrier report), and the sampled `x0s` under `"x0s"`.
     """
     x0s = sample_admissible_states(key, n)
@@ -305,7 +312,7 @@ def rate_bound_monte_carlo(
         out[name] = {
             "max_abs_omega": peak_rates,
             "violated": jnp.any(peak_rates >= RATE_LIMIT, axis=1),
-            "result": traj.result._value,
+            "status": traj.status,
         }
     return out
 
@@ -406,7 +413,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
                     "violations": int(np.sum(np.asarray(mc[name]["violated"]))),
                     "violation_fraction": float(np.mean(np.asarray(mc[name]["violated"]))),
                     "largest_abs_omega": float(np.max(np.asarray(mc[name]["max_abs_omega"]))),
-                    "unsuccessful_results": int(np.sum(np.asarray(mc[name]["result"]) != 0)),
+                    "unsuccessful_results": int(np.sum(np.asarray(mc[name]["status"]) != 0)),
                 }
                 for name in ("FTAC", "FT")
             },
@@ -417,10 +424,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
 
 
 def _result_name(traj: Trajectory) -> str:
-    for name in ("successful", "nonfinite_state", "constraint_violated"):
-        if bool(traj.result == getattr(RESULTS, name)):
-            return name
-    return "unknown"  # a RESULTS member added later
+    return Status(int(traj.status)).name
 
 
 def _write_figures(out: pathlib.Path, trajs: dict[str, Trajectory], mc: dict | None) -> None:
@@ -505,3 +509,12 @@ def _write_figures(out: pathlib.Path, trajs: dict[str, Trajectory], mc: dict | N
         ax.set_title("Monte Carlo over random admissible initial states")
         fig.savefig(out / "fig5_monte_carlo_peak_rate.png")
         plt.close(fig)
+
+
+SCENARIO = Scenario(
+    name="yu2022",
+    title=TITLE,
+    build=build,
+    reproduce=reproduce,
+    metrics=trajectory_metrics,
+)

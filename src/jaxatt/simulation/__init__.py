@@ -1,22 +1,31 @@
-"""Closed-loop composition and fixed-step simulation."""
+"""The closed-loop contract, its components' glue, and fixed-step simulation."""
 
 from ._actuators import (
     AbstractActuator as AbstractActuator,
     Chain as Chain,
+    FirstOrderLag as FirstOrderLag,
     Ideal as Ideal,
     NormSaturation as NormSaturation,
     Saturation as Saturation,
 )
 from ._closed_loop import (
+    AbstractClosedLoop as AbstractClosedLoop,
     ClosedLoop as ClosedLoop,
     ClosedLoopState as ClosedLoopState,
-    HeldControl as HeldControl,
+    HeldOutputs as HeldOutputs,
+)
+from ._loop import integrate as integrate
+from ._performance import (
+    SCALARIZE_FROM as SCALARIZE_FROM,
+    Performance as Performance,
+    samples_at_once as samples_at_once,
 )
 from ._sampling import (
     AbstractSampling as AbstractSampling,
     Continuous as Continuous,
     ZeroOrderHold as ZeroOrderHold,
 )
+from ._settings import Simulation as Simulation
 from ._simulate import simulate as simulate
 from ._solvers import (
     RK4 as RK4,
@@ -24,4 +33,9 @@ from ._solvers import (
     DiffraxSolver as DiffraxSolver,
     Euler as Euler,
 )
-from ._trajectory import RESULTS as RESULTS, Trajectory as Trajectory
+from ._status import SimulationFailed as SimulationFailed, Status as Status
+from ._trajectory import (
+    EVENT_CAPACITY as EVENT_CAPACITY,
+    EventRecord as EventRecord,
+    Trajectory as Trajectory,
+)

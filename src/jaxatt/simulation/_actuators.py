@@ -1,28 +1,57 @@
-"""Actuator models applied between the commanded and the applied control."""
+r"""Actuator models between the commanded and the applied control, possibly with state."""
 
 import abc
 
 import equinox as eqx
 import jax.numpy as jnp
-from jaxtyping import Array, ArrayLike, Float
+from jaxtyping import Array, ArrayLike, Float, PyTree
 
+from .._custom_types import RealScalarLike
 from .._validation import check_positive
 from ..numerics import safe_norm
 
 
 class AbstractActuator(eqx.Module):
-    """Maps the commanded control to the applied control: `applied = actuator(commanded)`."""
+    r"""Maps the commanded control to the applied one, with an optional state of its own.
+
+    **Required:** `__call__(t, command, state) -> (applied, state_dot)`.
+
+    **Optional hooks** (defaults: no state, nothing to do): `init(t0, command) -> state` (the
+    actuator's state at `t0`, given the first command), `update(t, state) -> state` after each
+    completed step, `signals(t, command, state) -> dict` recorded at the save times.
+    Actuator states are integrated with the plant in the closed loop's `actuator` slot.
+    """
 
     @abc.abstractmethod
-    def __call__(self, u: Float[Array, " m"]) -> Float[Array, " m"]:
-        """The applied control."""
+    def __call__(
+        self, t: RealScalarLike, command: Float[Array, "..."], state: PyTree[Array]
+    ) -> tuple[Float[Array, "..."], PyTree[Array]]:
+        """The applied control and the derivative of the actuator's state."""
+
+    def init(self, t0: RealScalarLike, command: Float[Array, "..."]) -> PyTree[Array]:
+        """The actuator's state at `t0` (default: none)."""
+        del t0, command
+        return None
+
+    def update(self, t: RealScalarLike, state: PyTree[Array]) -> PyTree[Array]:
+        """Discrete map after each completed step (default: none)."""
+        del t
+        return state
+
+    def signals(
+        self, t: RealScalarLike, command: Float[Array, "..."], state: PyTree[Array]
+    ) -> dict[str, Array]:
+        """Named signals recorded at the save times (default: none)."""
+        del t, command, state
+        return {}
 
 
 class Ideal(AbstractActuator):
     """The commanded control is applied exactly."""
 
-    def __call__(self, u: Float[Array, " m"]) -> Float[Array, " m"]:
-        return u
+    def __call__(self, t, command, state):
+        del t, state
+        return command, None
 
 
 class Saturation(AbstractActuator):
@@ -40,8 +69,9 @@ class Saturation(AbstractActuator):
     def __init__(self, limit: Float[ArrayLike, "*m"]):
         self.limit = check_positive("Saturation", "limit", limit)
 
-    def __call__(self, u: Float[Array, " m"]) -> Float[Array, " m"]:
-        return jnp.clip(u, -self.limit, self.limit)
+    def __call__(self, t, command, state):
+        del t, state
+        return jnp.clip(command, -self.limit, self.limit), None
 
 
 class NormSaturation(AbstractActuator):
@@ -58,15 +88,42 @@ class NormSaturation(AbstractActuator):
     def __init__(self, max_norm: Float[ArrayLike, ""]):
         self.max_norm = check_positive("NormSaturation", "max_norm", max_norm)
 
-    def __call__(self, u: Float[Array, " m"]) -> Float[Array, " m"]:
-        norm = safe_norm(u)
+    def __call__(self, t, command, state):
+        del t, state
+        norm = safe_norm(command)
         over = norm > self.max_norm
         scale = jnp.where(over, self.max_norm / jnp.where(over, norm, 1), 1)
-        return u * scale
+        return command * scale, None
+
+
+class FirstOrderLag(AbstractActuator):
+    r"""Actuator dynamics $\tau\,\dot u = u_{\mathrm{cmd}} - u$: the applied control lags the
+    command with time constant $\tau$ (a reaction wheel's torque loop, a thruster valve).
+
+    The applied control $u$ is the actuator's state, integrated with the plant; it starts at
+    the first command (`init`), so a constant command is applied exactly.
+
+    **Arguments:**
+    - `time_constant`: $\tau > 0$ [s], scalar or per axis.
+    """
+
+    time_constant: Float[Array, "*m"]
+
+    def __init__(self, time_constant: Float[ArrayLike, "*m"]):
+        self.time_constant = check_positive("FirstOrderLag", "time_constant", time_constant)
+
+    def init(self, t0, command):
+        del t0
+        return jnp.asarray(command)
+
+    def __call__(self, t, command, state):
+        del t
+        return state, (command - state) / self.time_constant
 
 
 class Chain(AbstractActuator):
-    """Apply several actuator models in order, e.g. a norm limit then a per-axis limit."""
+    """Apply several actuator models in order, e.g. a lag, then a norm limit, then a per-axis
+    limit. The state is the tuple of the stages' states."""
 
     stages: tuple[AbstractActuator, ...]
 
@@ -75,7 +132,27 @@ class Chain(AbstractActuator):
             raise ValueError("Chain: pass one or more actuator models (Saturation, ...).")
         self.stages = tuple(stages)
 
-    def __call__(self, u: Float[Array, " m"]) -> Float[Array, " m"]:
+    def init(self, t0, command):
+        states = []
         for stage in self.stages:
-            u = stage(u)
-        return u
+            state = stage.init(t0, command)
+            states.append(state)
+            command, _ = stage(t0, command, state)
+        return tuple(states)
+
+    def __call__(self, t, command, state):
+        derivatives = []
+        for stage, stage_state in zip(self.stages, state):
+            command, derivative = stage(t, command, stage_state)
+            derivatives.append(derivative)
+        return command, tuple(derivatives)
+
+    def update(self, t, state):
+        return tuple(stage.update(t, s) for stage, s in zip(self.stages, state))
+
+    def signals(self, t, command, state):
+        out = {}
+        for stage, stage_state in zip(self.stages, state):
+            out.update(stage.signals(t, command, stage_state))
+            command, _ = stage(t, command, stage_state)
+        return out

@@ -1,49 +1,181 @@
-"""The closed loop: plant + reference + controller + actuator, as one diffrax-style vector field."""
+r"""The closed-loop contract, and `ClosedLoop`: plant, reference, observer, controller, actuator.
+
+```
+            reference r(t) ─────────────────────────┐
+                                                    v
+ plant x ──measure──> y ──> observer ──estimate──> controller ──u_cmd──> actuator ──u──> plant
+                      │                                ^
+                      └────────────────────────────────┘
+```
+
+`simulate`, `monte_carlo` and the tuning objectives depend only on [`AbstractClosedLoop`][]:
+initial state, vector field, held (sampled) outputs, discrete updates, status, events and
+named signals. They never inspect what the state means.
+"""
+
+import abc
 
 import equinox as eqx
 import jax.numpy as jnp
-from jaxtyping import Array, PyTree
+import jax.tree_util as jtu
+from jaxtyping import Array, Bool, Int, PyTree
 
 from .._custom_types import RealScalarLike
 from ..controllers import AbstractController
-from ..plants import AbstractPlant, QuaternionState
-from ..references import AbstractReference, AttitudeReference, ConstantAttitude
+from ..observers import AbstractObserver, ObservedMeasurement
+from ..plants import AbstractPlant
+from ..references import AbstractReference
 from ._actuators import AbstractActuator, Ideal
+from ._status import Status
+
+
+class AbstractClosedLoop(eqx.Module):
+    r"""What `simulate`, `monte_carlo` and the tuning objectives need of a closed loop.
+
+    The state `y` is any pytree; `held` is what a zero-order hold keeps constant over a
+    sample period (`None` under continuous control).
+
+    - `check_state(x0, name, batch_shape)` and `check_initial(t0, x0)`: host-side checks of
+      concrete initial values, before anything is compiled;
+    - `init(t0, x0) -> y0`;
+    - `hold(t, y) -> held`: the sampled outputs (command and flight-software derivatives);
+    - `vector_field(t, y, held) -> y_dot`;
+    - `physics_update(t, y) -> (y, events)`: the discrete maps of the physical parts after a
+      completed step, and the named events they raised;
+    - `flight_update(t, y) -> y`: the discrete maps of the flight software (controller,
+      observer), after every step under continuous control and at sample instants under a
+      hold;
+    - `status(t, y) -> Int[]`: a [`Status`][] code (0 when all is well);
+    - `signals(t, y, held) -> dict`: named outputs recorded at the save times; `"u"` is the
+      applied control by convention.
+    """
+
+    @abc.abstractmethod
+    def check_state(self, x0: PyTree, name: str, batch_shape: tuple[int, ...] = ()) -> PyTree:
+        """Validate and convert a user-supplied initial state (or a batch of them)."""
+
+    @abc.abstractmethod
+    def check_initial(self, t0: float, x0: PyTree) -> None:
+        """Refuse an inadmissible concrete initial state with a `ValueError`."""
+
+    @abc.abstractmethod
+    def init(self, t0: RealScalarLike, x0: PyTree[Array]) -> PyTree[Array]:
+        """The closed-loop state at `t0`."""
+
+    @abc.abstractmethod
+    def hold(self, t: RealScalarLike, y: PyTree[Array]) -> PyTree[Array]:
+        """The outputs a zero-order hold keeps over one sample period."""
+
+    @abc.abstractmethod
+    def vector_field(self, t: RealScalarLike, y: PyTree[Array], held) -> PyTree[Array]:
+        """$\\dot y$; `held` is `None` under continuous control."""
+
+    @abc.abstractmethod
+    def physics_update(
+        self, t: RealScalarLike, y: PyTree[Array]
+    ) -> tuple[PyTree[Array], dict[str, Bool[Array, ""]]]:
+        """Discrete maps of the physical parts after a completed step, and their events."""
+
+    @abc.abstractmethod
+    def flight_update(self, t: RealScalarLike, y: PyTree[Array]) -> PyTree[Array]:
+        """Discrete maps of the flight software (controller, observer)."""
+
+    @abc.abstractmethod
+    def status(self, t: RealScalarLike, y: PyTree[Array]) -> Int[Array, ""]:
+        """A [`Status`][] code for the state `y` at `t`."""
+
+    @abc.abstractmethod
+    def signals(self, t: RealScalarLike, y: PyTree[Array], held) -> dict[str, Array]:
+        """Named outputs at a save time."""
+
+    def __call__(self, t, y, args):
+        """`vector_field` with diffrax's `(t, y, args)` signature (`args` = held outputs)."""
+        return self.vector_field(t, y, args)
 
 
 class ClosedLoopState(eqx.Module):
-    """Everything integrated together: the plant's, the reference's and the controller's states."""
+    """Everything integrated together: the states of the plant, the reference, the controller,
+    the observer and the actuator (`None` for a stateless component)."""
 
     plant: PyTree[Array]
     reference: PyTree[Array]
     controller: PyTree[Array]
+    observer: PyTree[Array] = None
+    actuator: PyTree[Array] = None
 
 
-class HeldControl(eqx.Module):
-    """A control and controller-state derivative held constant over a sample period."""
+class HeldOutputs(eqx.Module):
+    """What a zero-order hold keeps constant over a sample period: the command and the
+    derivatives of the controller's and the observer's continuous states."""
 
-    control: Array
+    command: PyTree[Array]
     controller_dot: PyTree[Array]
+    observer_dot: PyTree[Array]
 
 
-class ClosedLoop(eqx.Module):
-    r"""$\dot y = f(t, y)$ for $y$ = (plant, reference, controller) states.
+def _check_type(where: str, name: str, value, kind) -> None:
+    if not isinstance(value, kind):
+        raise TypeError(f"{where}: `{name}` has the wrong type {type(value).__name__}.")
 
-    $u_{cmd}, \dot x_c = \text{controller}(t, x_p, r(t), x_c)$, $u = \text{actuator}(u_{cmd})$,
-    $\dot x_p = \text{plant}(t, x_p, u)$. Used as `ClosedLoop(...)(t, y, args)`: `args` is
-    `None` under continuous control and a [`HeldControl`][] under a zero-order hold.
+
+def _merge(out: dict, new: dict, owner: str) -> None:
+    for key, value in new.items():
+        if key in out:
+            raise ValueError(
+                f"ClosedLoop: the signal name {key!r} from the {owner} is already used by "
+                "another component of the loop; rename one of them."
+            )
+        out[key] = value
+
+
+def all_finite(tree: PyTree[Array]) -> Bool[Array, ""]:
+    """Whether every floating entry of `tree` is finite."""
+    leaves = [
+        jnp.all(jnp.isfinite(leaf))
+        for leaf in jtu.tree_leaves(tree)
+        if jnp.issubdtype(jnp.result_type(leaf), jnp.inexact)
+    ]
+    return jnp.all(jnp.stack(leaves)) if leaves else jnp.array(True)
+
+
+class ClosedLoop(AbstractClosedLoop):
+    r"""Plant, reference, (observer,) controller and actuator as one vector field.
+
+    At time $t$, with $y = (x_p, x_r, x_c, x_o, x_a)$:
+
+    $$r, \dot x_r = \text{reference}(t, x_r),\quad m = \text{plant.measure}(t, x_p),\quad
+    \hat d = \text{observer.estimate}(t, m, x_o),$$
+    $$u_{cmd}, \dot x_c = \text{controller}(t, m\ [\text{or } (m, \hat d)], r, x_c),\quad
+    \dot x_o = \text{observer}(t, m, u_{cmd}, x_o),$$
+    $$u, \dot x_a = \text{actuator}(t, u_{cmd}, x_a),\quad
+    \dot x_p = \text{plant.vector\_field}(t, x_p, u).$$
 
     **Arguments:**
     - `plant`: an [`jaxatt.plants.AbstractPlant`][].
-    - `controller`: an [`jaxatt.controllers.AbstractController`][].
-    - `reference`: an [`jaxatt.references.AbstractReference`][]; default: hold the identity.
-    - `actuator`: an actuator model (e.g. [`Saturation`][]); default ideal.
+    - `controller`: an [`jaxatt.controllers.AbstractController`][] reading what the plant's
+      `measure` returns (checked here).
+    - `reference`: an [`jaxatt.references.AbstractReference`][]; default: the plant's
+      `default_reference()` (the identity attitude for rigid bodies).
+    - `actuator`: an [`AbstractActuator`][] (e.g. [`Saturation`][], [`FirstOrderLag`][]);
+      default ideal.
+    - `observer`: an [`jaxatt.observers.AbstractObserver`][] or `None`. Its estimate reaches
+      controllers that read [`jaxatt.observers.ObservedMeasurement`][] (e.g.
+      [`jaxatt.controllers.ObserverCompensated`][]).
+
+    **Signals** at the save times: `"u"` (applied control), `"u_cmd"` (commanded), then the
+    plant's, the reference's, the controller's, the observer's and the actuator's named
+    signals (a name used twice is an error).
+
+    **Status** after every completed step: `nonfinite_state` if any state is NaN or infinite,
+    `invalid_plant` if `plant.valid` fails, `constraint_violated` if `controller.admissible`
+    fails (in that order of precedence).
     """
 
     plant: AbstractPlant
     controller: AbstractController
     reference: AbstractReference
     actuator: AbstractActuator
+    observer: AbstractObserver | None
 
     def __init__(
         self,
@@ -51,76 +183,163 @@ class ClosedLoop(eqx.Module):
         controller: AbstractController,
         reference: AbstractReference | None = None,
         actuator: AbstractActuator | None = None,
+        observer: AbstractObserver | None = None,
     ):
-        for name, value, kind in (
-            ("plant", plant, AbstractPlant),
-            ("controller", controller, AbstractController),
-            ("reference", reference, (AbstractReference, type(None))),
-            ("actuator", actuator, (AbstractActuator, type(None))),
+        where = "ClosedLoop"
+        _check_type(where, "plant", plant, AbstractPlant)
+        _check_type(where, "controller", controller, AbstractController)
+        _check_type(where, "reference", reference, (AbstractReference, type(None)))
+        _check_type(where, "actuator", actuator, (AbstractActuator, type(None)))
+        _check_type(where, "observer", observer, (AbstractObserver, type(None)))
+        reference = plant.default_reference() if reference is None else reference
+        controller.check_measurement(plant.measurement_type, observer is not None)
+        if observer is not None and not issubclass(
+            plant.measurement_type, observer.measurement_type
         ):
-            if not isinstance(value, kind):
-                raise TypeError(f"ClosedLoop: `{name}` has the wrong type {type(value).__name__}.")
-        if not issubclass(plant.state_type, controller.measurement_type):
             raise ValueError(
-                f"ClosedLoop: {type(controller).__name__} needs a plant whose state is a "
-                f"{controller.measurement_type.__name__}, but {type(plant).__name__} has "
-                f"{plant.state_type.__name__}; pair the controller with the matching plant "
-                "(RigidBodyQuaternion -> QuaternionState, RigidBodyMRP -> MRPState)."
+                f"ClosedLoop: {type(observer).__name__} reads "
+                f"{observer.measurement_type.__name__} measurements, but the plant measures "
+                f"{plant.measurement_type.__name__}."
+            )
+        if not issubclass(reference.output_type, controller.reference_type):
+            raise ValueError(
+                f"ClosedLoop: {type(controller).__name__} reads "
+                f"{controller.reference_type.__name__} references, but "
+                f"{type(reference).__name__} produces {reference.output_type.__name__}."
             )
         self.plant = plant
         self.controller = controller
-        self.reference = ConstantAttitude() if reference is None else reference
+        self.reference = reference
         self.actuator = Ideal() if actuator is None else actuator
+        self.observer = observer
 
-    def init(self, t0: RealScalarLike, plant_state: PyTree[Array]) -> ClosedLoopState:
-        """The closed-loop state at `t0` from the plant's initial state."""
+    # --- Host-side checks ------------------------------------------------------------------
+
+    def check_state(self, x0: PyTree, name: str = "x0", batch_shape: tuple[int, ...] = ()):
+        return self.plant.check_state(x0, name, batch_shape)
+
+    def check_initial(self, t0: float, x0: PyTree) -> None:
+        if type(self.controller).check_initial is AbstractController.check_initial:
+            return  # nothing to check: skip computing the initial inputs
+        measurement, reference = _initial_inputs(self, t0, x0)
+        self.controller.check_initial(t0, measurement, reference)
+
+    # --- Pieces of the loop ----------------------------------------------------------------
+
+    @property
+    def _reads_estimate(self) -> bool:
+        return issubclass(self.controller.measurement_type, ObservedMeasurement)
+
+    def _controller_inputs(self, t, y: ClosedLoopState):
+        """(reference output, plant measurement, what the controller reads)."""
+        reference, _ = self.reference(t, y.reference)
+        measurement = self.plant.measure(t, y.plant)
+        if self.observer is not None and self._reads_estimate:
+            estimate = self.observer.estimate(t, measurement, y.observer)
+            return reference, measurement, ObservedMeasurement(measurement, estimate)
+        return reference, measurement, measurement
+
+    def _flight(self, t, y: ClosedLoopState) -> HeldOutputs:
+        """The flight software's outputs: command, controller and observer derivatives."""
+        reference, measurement, reads = self._controller_inputs(t, y)
+        command, controller_dot = self.controller(t, reads, reference, y.controller)
+        observer_dot = None
+        if self.observer is not None:
+            observer_dot = self.observer(t, measurement, command, y.observer)
+        return HeldOutputs(command, controller_dot, observer_dot)
+
+    # --- The contract ----------------------------------------------------------------------
+
+    def init(self, t0: RealScalarLike, x0: PyTree[Array]) -> ClosedLoopState:
         reference_state = self.reference.init(t0)
         reference, _ = self.reference(t0, reference_state)
-        controller_state = self.controller.init(t0, plant_state, reference)
-        return ClosedLoopState(plant_state, reference_state, controller_state)
+        measurement = self.plant.measure(t0, x0)
+        observer_state = None
+        reads = measurement
+        if self.observer is not None:
+            observer_state = self.observer.init(t0, measurement)
+            if self._reads_estimate:
+                estimate = self.observer.estimate(t0, measurement, observer_state)
+                reads = ObservedMeasurement(measurement, estimate)
+        controller_state = self.controller.init(t0, reads, reference)
+        y = ClosedLoopState(x0, reference_state, controller_state, observer_state, None)
+        command = self._flight(t0, y).command
+        actuator_state = self.actuator.init(t0, command)
+        return ClosedLoopState(
+            x0, reference_state, controller_state, observer_state, actuator_state
+        )
 
-    def control(self, t: RealScalarLike, y: ClosedLoopState) -> HeldControl:
-        """The commanded control and controller-state derivative at `(t, y)`."""
-        reference, _ = self.reference(t, y.reference)
-        u_cmd, controller_dot = self.controller(t, y.plant, reference, y.controller)
-        return HeldControl(u_cmd, controller_dot)
+    def hold(self, t: RealScalarLike, y: ClosedLoopState) -> HeldOutputs:
+        return self._flight(t, y)
 
-    def __call__(self, t: RealScalarLike, y: ClosedLoopState, args: HeldControl | None):
-        reference, reference_dot = self.reference(t, y.reference)
-        if args is None:
-            u_cmd, controller_dot = self.controller(t, y.plant, reference, y.controller)
-        else:
-            u_cmd, controller_dot = args.control, args.controller_dot
-        plant_dot = self.plant.vector_field(t, y.plant, self.actuator(u_cmd), None)
-        return ClosedLoopState(plant_dot, reference_dot, controller_dot)
+    def vector_field(
+        self, t: RealScalarLike, y: ClosedLoopState, held: HeldOutputs | None
+    ) -> ClosedLoopState:
+        _, reference_dot = self.reference(t, y.reference)
+        flight = self._flight(t, y) if held is None else held
+        applied, actuator_dot = self.actuator(t, flight.command, y.actuator)
+        plant_dot = self.plant.vector_field(t, y.plant, applied)
+        return ClosedLoopState(
+            plant_dot, reference_dot, flight.controller_dot, flight.observer_dot, actuator_dot
+        )
 
-    def post_step(self, y: ClosedLoopState) -> ClosedLoopState:
-        return ClosedLoopState(self.plant.post_step(y.plant), y.reference, y.controller)
+    def physics_update(
+        self, t: RealScalarLike, y: ClosedLoopState
+    ) -> tuple[ClosedLoopState, dict[str, Bool[Array, ""]]]:
+        plant = self.plant.update(t, y.plant)
+        events = self.plant.events(t, y.plant, plant)
+        y = ClosedLoopState(
+            plant,
+            self.reference.update(t, y.reference),
+            y.controller,
+            y.observer,
+            self.actuator.update(t, y.actuator),
+        )
+        return y, dict(events)
+
+    def flight_update(self, t: RealScalarLike, y: ClosedLoopState) -> ClosedLoopState:
+        reference, measurement, reads = self._controller_inputs(t, y)
+        controller = self.controller.update(t, reads, reference, y.controller)
+        observer = y.observer
+        if self.observer is not None:
+            observer = self.observer.update(t, measurement, y.observer)
+        return ClosedLoopState(y.plant, y.reference, controller, observer, y.actuator)
+
+    def status(self, t: RealScalarLike, y: ClosedLoopState) -> Int[Array, ""]:
+        reference, _, reads = self._controller_inputs(t, y)
+        finite = all_finite(y)
+        valid = jnp.asarray(self.plant.valid(t, y.plant))
+        admissible = jnp.asarray(self.controller.admissible(t, reads, reference, y.controller))
+        code = jnp.where(
+            ~finite,
+            int(Status.nonfinite_state),
+            jnp.where(
+                ~valid,
+                int(Status.invalid_plant),
+                jnp.where(~admissible, int(Status.constraint_violated), 0),
+            ),
+        )
+        return code.astype(jnp.int32)
 
     def signals(
-        self, t: RealScalarLike, y: ClosedLoopState, held: HeldControl | None
+        self, t: RealScalarLike, y: ClosedLoopState, held: HeldOutputs | None
     ) -> dict[str, Array]:
-        """Signals recorded at a save time.
-
-        `u` (applied control), `u_cmd` (commanded), `attitude_error` and `rate_error` (from
-        the plant's `tracking_error`), `disturbance`, `quat_norm_error` ($\\|q\\|-1$, quaternion
-        plants only), and the controller's `diagnostics`.
-        """
-        reference: AttitudeReference
-        reference, _ = self.reference(t, y.reference)
-        if held is None:
-            u_cmd, _ = self.controller(t, y.plant, reference, y.controller)
-        else:
-            u_cmd = held.control
-        attitude_error, rate_error = self.plant.tracking_error(y.plant, reference)
-        out = {
-            "u": self.actuator(u_cmd),
-            "u_cmd": u_cmd,
-            "attitude_error": attitude_error,
-            "rate_error": rate_error,
-            "disturbance": self.plant.disturbance_at(t),
-        }
-        if isinstance(y.plant, QuaternionState):
-            out["quat_norm_error"] = jnp.sqrt(jnp.sum(y.plant.q**2)) - 1
-        out.update(self.controller.diagnostics(t, y.plant, reference, y.controller))
+        reference, measurement, reads = self._controller_inputs(t, y)
+        command = self._flight(t, y).command if held is None else held.command
+        applied, _ = self.actuator(t, command, y.actuator)
+        out = {"u": applied, "u_cmd": command}
+        _merge(out, self.plant.signals(t, y.plant, reference), "plant")
+        _merge(out, self.reference.signals(t, y.reference), "reference")
+        _merge(out, self.controller.signals(t, reads, reference, y.controller), "controller")
+        if self.observer is not None:
+            _merge(out, self.observer.signals(t, measurement, y.observer), "observer")
+        _merge(out, self.actuator.signals(t, command, y.actuator), "actuator")
         return out
+
+
+@eqx.filter_jit
+def _initial_inputs(loop: ClosedLoop, t0: float, x0: PyTree[Array]):
+    """The controller's inputs at `t0` (for host-side initial checks), in one small program."""
+    y0 = loop.init(t0, x0)
+    reference, _, reads = loop._controller_inputs(t0, y0)
+    return reads, reference

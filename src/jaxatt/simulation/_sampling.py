@@ -13,33 +13,59 @@ class AbstractSampling(eqx.Module):
     def steps_per_sample(self, dt: float) -> int:
         """Integration steps between controller updates (0 means every solver stage)."""
 
+    @property
+    @abc.abstractmethod
+    def delay(self) -> bool:
+        """Whether a command computed at a sample instant is applied one period later."""
+
 
 class Continuous(AbstractSampling):
-    """Evaluate the controller inside the vector field, at every solver stage.
+    """Evaluate the controller (and the observer) inside the vector field, at every solver stage.
 
-    This is the setting of the papers (the control law is part of the ODE).
+    This is the setting of the papers (the control law is part of the ODE). Discrete updates
+    of the controller's and observer's states run after every completed step.
     """
 
     def steps_per_sample(self, dt: float) -> int:
         del dt
         return 0
 
+    @property
+    def delay(self) -> bool:
+        return False
+
 
 class ZeroOrderHold(AbstractSampling):
-    """Compute the control every `period` seconds and hold it in between.
+    r"""Run the flight software every `period` seconds and hold its outputs in between.
 
-    `period` must be a whole multiple of the integration step `dt`. The controller's internal
-    state derivative is held too (forward Euler at the controller rate). `period` is static:
-    changing it recompiles, like changing `dt`.
+    At each sample instant $t_k = t_0 + k\,T$ the controller's and the observer's discrete
+    updates run (for $k \ge 1$; `init` covers $t_0$), then the command and the derivatives of
+    their continuous states are computed and held over $[t_k, t_{k+1})$ (their continuous
+    states thus advance by forward Euler at the controller rate, as on a flight computer).
+
+    **Arguments:**
+    - `period`: $T > 0$ [s], a whole multiple of the integration step `dt`. Static: changing
+      it recompiles, like changing `dt`.
+    - `delay`: apply each command one period late: the command computed at $t_k$ acts over
+      $[t_{k+1}, t_{k+2})$, and over the first period the actuator receives zeros. This is
+      the timing of Basilisk's examples, where the flight software reads the sensors at
+      $t_k$ and its command message reaches the actuator at the next task update. Default
+      False (the command acts at once).
     """
 
     period: float = eqx.field(static=True)
+    delayed: bool = eqx.field(static=True)
 
-    def __init__(self, period: float):
+    def __init__(self, period: float, *, delay: bool = False):
         period = float(period)
         if not (math.isfinite(period) and period > 0):
             raise ValueError(f"ZeroOrderHold: `period` must be positive, got period={period}.")
         self.period = period
+        self.delayed = bool(delay)
+
+    @property
+    def delay(self) -> bool:
+        return self.delayed
 
     def steps_per_sample(self, dt: float) -> int:
         ratio = self.period / dt

@@ -14,7 +14,10 @@ re-evaluates it with every small array held as a NumPy object array of *scalar* 
 - elementwise primitives (`add`, `mul`, `sin`, `select_n`, ...) are applied entry by entry;
 - structural primitives (`slice`, `concatenate`, `reshape`, `broadcast_in_dim`, `transpose`,
   `squeeze`, `stack`, ...) only rearrange the object arrays and emit nothing;
-- `dot_general` and the `reduce_*` primitives become explicit sums (maxima, ...) of scalars;
+- `dot_general` and the `reduce_*` primitives become explicit sums (maxima, ...) of scalars,
+  as long as a product needs at most `Limits.max_products` multiplications (a 3x3 matrix
+  times a 3x3 matrix is 27); larger products (graph Laplacians, modal matrices) are evaluated
+  packed, so scalarization never turns an O(n^3) product into O(n^3) scalar operations;
 - calls (`pjit`, `closed_call`) and `cond`/`switch` are scalarized recursively;
 - anything else (custom derivative rules such as `jaxatt.numerics.sig_pow`'s, loops,
   callbacks, large arrays) is evaluated *as is* on the re-assembled arrays and its result split
@@ -25,6 +28,7 @@ a batch is elementwise. The arithmetic is the same as the original program's up 
 of additions in dot products and reductions (a few ulps).
 """
 
+import dataclasses
 import functools as ft
 import math
 from collections.abc import Callable, Sequence
@@ -39,8 +43,21 @@ import jax.tree_util as jtu
 import numpy as np
 
 
-MAX_SIZE = 64
-"""Arrays with more entries than this are kept whole (e.g. long filter histories)."""
+@dataclasses.dataclass(frozen=True)
+class Limits:
+    """Size limits of scalarization (static; see `jaxatt.simulation.Performance`).
+
+    - `max_size`: arrays with more entries than this are kept whole (packed), e.g. long
+      filter histories or the state of a large network.
+    - `max_products`: a `dot_general` that needs more scalar multiplications than this is
+      evaluated packed (a 3x3 matrix-vector product needs 9, a 3x3 matrix product 27).
+    """
+
+    max_size: int = 64
+    max_products: int = 64
+
+
+DEFAULT_LIMITS = Limits()
 
 
 # --- Representation -------------------------------------------------------------------------
@@ -52,13 +69,13 @@ def _is_split(x) -> bool:
     return isinstance(x, np.ndarray) and x.dtype == object
 
 
-def split(x) -> Any:
-    """The object array of the scalar entries of `x` (packed arrays over `MAX_SIZE` stay)."""
+def split(x, limits: Limits = DEFAULT_LIMITS) -> Any:
+    """The object array of the scalar entries of `x` (arrays over `limits.max_size` stay)."""
     if _is_split(x):
         return x
     shape = np.shape(x)
     size = math.prod(shape)
-    if size > MAX_SIZE:
+    if size > limits.max_size:
         return x
     if isinstance(x, np.ndarray | np.generic):
         x = np.asarray(x)
@@ -199,34 +216,35 @@ _STRUCTURAL: dict[str, Callable] = {
 }
 
 
-def _split_output(value, aval):
+def _split_output(value, aval, limits: Limits):
     """Split a packed result, unless it is large."""
-    if math.prod(aval.shape) > MAX_SIZE:
+    if math.prod(aval.shape) > limits.max_size:
         return value
-    return split(value)
+    return split(value, limits)
 
 
 # --- The interpreter ------------------------------------------------------------------------
 
 
-def _call_packed(eqn, invals):
+def _call_packed(eqn, invals, limits: Limits):
     params = eqn.primitive.get_bind_params(eqn.params)
     args = [pack(v, var.aval.dtype) for v, var in zip(invals, eqn.invars)]
     with eqn.ctx.manager:
         out = eqn.primitive.bind(*args, **params)
     if eqn.primitive.multiple_results:
-        return [_split_output(o, v.aval) for o, v in zip(out, eqn.outvars)]
-    return [_split_output(out, eqn.outvars[0].aval)]
+        return [_split_output(o, v.aval, limits) for o, v in zip(out, eqn.outvars)]
+    return [_split_output(out, eqn.outvars[0].aval, limits)]
 
 
-def _closed_jaxpr_fun(closed: jex.ClosedJaxpr) -> Callable:
-    def fun(*args):
-        return eval_jaxpr(closed.jaxpr, closed.consts, args)
+def _dot_products(eqn) -> int:
+    """Scalar multiplications of a `dot_general`: output entries times contraction length."""
+    (lc, _), _ = eqn.params["dimension_numbers"]
+    lhs = eqn.invars[0].aval.shape
+    contraction = math.prod(lhs[d] for d in lc)
+    return math.prod(eqn.outvars[0].aval.shape) * contraction
 
-    return fun
 
-
-def _eval_cond(eqn, invals):
+def _eval_cond(eqn, invals, limits: Limits):
     index, *operands = invals
     if _is_split(index):
         index = pack(index, eqn.invars[0].aval.dtype)
@@ -249,14 +267,14 @@ def _eval_cond(eqn, invals):
 
     def branch_fun(closed):
         def fun(leaves):
-            results = eval_jaxpr(closed.jaxpr, closed.consts, rebuild(leaves))
+            results = eval_jaxpr(closed.jaxpr, closed.consts, rebuild(leaves), limits)
             return [pack(r, v.aval.dtype) for r, v in zip(results, closed.jaxpr.outvars)]
 
         return fun
 
     leaves = [entry for entries in flat for entry in entries]
     outs = lax.switch(index, [branch_fun(b) for b in eqn.params["branches"]], leaves)
-    return [_split_output(o, v.aval) for o, v in zip(outs, eqn.outvars)]
+    return [_split_output(o, v.aval, limits) for o, v in zip(outs, eqn.outvars)]
 
 
 def _eval_barrier(invals):
@@ -265,7 +283,7 @@ def _eval_barrier(invals):
     return from_flat(jtu.tree_unflatten(treedef, lax.optimization_barrier(leaves)), spec)
 
 
-def _eval_custom_jvp(eqn, invals):
+def _eval_custom_jvp(eqn, invals, limits: Limits):
     """A function with a custom derivative rule (e.g. `sig_pow`): its primal is scalarized, and
     its derivative is the original rule, applied to the re-assembled arrays."""
     in_avals = [v.aval for v in eqn.invars]
@@ -276,7 +294,7 @@ def _eval_custom_jvp(eqn, invals):
     out_avals = [v.aval for v in eqn.outvars]
     out_spec = (
         jtu.tree_structure([0] * len(out_avals)),
-        tuple(a.shape if math.prod(a.shape) <= MAX_SIZE else None for a in out_avals),
+        tuple(a.shape if math.prod(a.shape) <= limits.max_size else None for a in out_avals),
     )
 
     def unflatten_in(leaves):
@@ -284,8 +302,8 @@ def _eval_custom_jvp(eqn, invals):
 
     @jax.custom_jvp
     def primal(*leaves):
-        outs = eval_jaxpr(call.jaxpr, call.consts, unflatten_in(leaves))
-        return jtu.tree_leaves(to_flat([split(o) for o in outs])[0])
+        outs = eval_jaxpr(call.jaxpr, call.consts, unflatten_in(leaves), limits)
+        return jtu.tree_leaves(to_flat([split(o, limits) for o in outs])[0])
 
     @primal.defjvp
     def rule(leaves, tangent_leaves):
@@ -297,15 +315,15 @@ def _eval_custom_jvp(eqn, invals):
             return eqn.primitive.bind(*arrays, **params)
 
         outs, out_tangents = jax.jvp(original, args, tangents)
-        flat_out = jtu.tree_leaves(to_flat([split(o) for o in outs])[0])
-        flat_tangent = jtu.tree_leaves(to_flat([split(o) for o in out_tangents])[0])
+        flat_out = jtu.tree_leaves(to_flat([split(o, limits) for o in outs])[0])
+        flat_tangent = jtu.tree_leaves(to_flat([split(o, limits) for o in out_tangents])[0])
         return flat_out, flat_tangent
 
     leaves = jtu.tree_leaves(to_flat(list(invals))[0])
     with eqn.ctx.manager:
         outs = primal(*leaves)
     grouped = from_flat(tuple(_regroup(outs, out_spec)), out_spec)
-    return [_split_output(o, a) for o, a in zip(grouped, out_avals)]
+    return [_split_output(o, a, limits) for o, a in zip(grouped, out_avals)]
 
 
 def _regroup(leaves, spec):
@@ -320,19 +338,19 @@ def _regroup(leaves, spec):
     return out
 
 
-def _eval_eqn(eqn, invals):
+def _eval_eqn(eqn, invals, limits: Limits):
     name = eqn.primitive.name
     if name in ("pjit", "jit", "closed_call", "core_call"):
         inner = eqn.params.get("jaxpr") or eqn.params.get("call_jaxpr")
         if isinstance(inner, jex.ClosedJaxpr):
-            return eval_jaxpr(inner.jaxpr, inner.consts, invals)
-        return eval_jaxpr(inner, (), invals)
+            return eval_jaxpr(inner.jaxpr, inner.consts, invals, limits)
+        return eval_jaxpr(inner, (), invals, limits)
     if name == "cond":
-        return _eval_cond(eqn, invals)
+        return _eval_cond(eqn, invals, limits)
     if name == "optimization_barrier":
         return _eval_barrier(invals)
     if name == "custom_jvp_call" and all(_is_split(v) for v in invals):
-        out = _eval_custom_jvp(eqn, invals)
+        out = _eval_custom_jvp(eqn, invals, limits)
         if out is not None:
             return out
     if invals and all(_is_split(v) for v in invals):
@@ -341,6 +359,8 @@ def _eval_eqn(eqn, invals):
             with eqn.ctx.manager:
                 return [_elementwise(eqn.primitive, params, invals)]
         rule = _STRUCTURAL.get(name)
+        if name == "dot_general" and _dot_products(eqn) > limits.max_products:
+            rule = None  # a large product stays one packed dot (no O(n^3) scalar program)
         if rule is not None:
             with eqn.ctx.manager:
                 out = rule(*invals, **params)
@@ -350,31 +370,33 @@ def _eval_eqn(eqn, invals):
             out = _dynamic_slice(*invals, **params)
             if out is not None:
                 return [out]
-    return _call_packed(eqn, invals)
+    return _call_packed(eqn, invals, limits)
 
 
-def eval_jaxpr(jaxpr: jex.Jaxpr, consts: Sequence, args: Sequence) -> list:
+def eval_jaxpr(
+    jaxpr: jex.Jaxpr, consts: Sequence, args: Sequence, limits: Limits = DEFAULT_LIMITS
+) -> list:
     """Evaluate `jaxpr` on split (object-array) or packed inputs; outputs split where small."""
     env: dict = {}
 
     def read(v):
         if isinstance(v, jex.Literal):
-            return split(np.asarray(v.val, dtype=v.aval.dtype))
+            return split(np.asarray(v.val, dtype=v.aval.dtype), limits)
         return env[v]
 
     for var, value in zip(jaxpr.constvars, consts):
-        env[var] = _split_output(value, var.aval)
+        env[var] = _split_output(value, var.aval, limits)
     for var, value in zip(jaxpr.invars, args):
         env[var] = value
     for eqn in jaxpr.eqns:
-        outs = _eval_eqn(eqn, [read(v) for v in eqn.invars])
+        outs = _eval_eqn(eqn, [read(v) for v in eqn.invars], limits)
         for var, value in zip(eqn.outvars, outs):
             if not isinstance(var, jex.DropVar):
                 env[var] = value
     return [read(v) for v in jaxpr.outvars]
 
 
-def scalarize(fun: Callable) -> Callable:
+def scalarize(fun: Callable, limits: Limits = DEFAULT_LIMITS) -> Callable:
     """`fun` evaluated entry by entry on its small arrays (same values; see the module).
 
     The returned function takes and returns the same pytrees as `fun`, but every small array
@@ -389,7 +411,7 @@ def scalarize(fun: Callable) -> Callable:
         closed, out_shape = jax.make_jaxpr(
             lambda *flat: fun(*jtu.tree_unflatten(treedef, flat)), return_shape=True
         )(*avals)
-        outs = eval_jaxpr(closed.jaxpr, closed.consts, leaves)
+        outs = eval_jaxpr(closed.jaxpr, closed.consts, leaves, limits)
         return jtu.tree_unflatten(jtu.tree_structure(out_shape), outs)
 
     return wrapped
@@ -402,9 +424,9 @@ def _dtype(x):
     return jnp.result_type(x)
 
 
-def split_tree(tree):
+def split_tree(tree, limits: Limits = DEFAULT_LIMITS):
     """[`split`][] every leaf of a pytree."""
-    return jtu.tree_map(split, tree)
+    return jtu.tree_map(lambda x: split(x, limits), tree)
 
 
 def pack_tree(tree, like):
@@ -442,7 +464,7 @@ def from_flat(flat: tuple, spec: tuple):
 
 
 def scalarized_loop_step(
-    step: Callable, module, carry0
+    step: Callable, module, carry0, limits: Limits = DEFAULT_LIMITS
 ) -> tuple[tuple, Callable, Callable]:
     r"""A `lax.scan` body for `carry = step(module, carry, i)` that runs on scalar entries.
 
@@ -456,19 +478,20 @@ def scalarized_loop_step(
     explicit arguments of the rule, so gradients with respect to gains flow through it.
     """
     params, static = eqx.partition(module, eqx.is_array)
-    flat0, spec = to_flat(split_tree(carry0))
-    scalar_step = scalarize(lambda p, carry, i: step(eqx.combine(p, static), carry, i))
+    flat0, spec = to_flat(split_tree(carry0, limits))
+    scalar_step = scalarize(lambda p, carry, i: step(eqx.combine(p, static), carry, i), limits)
 
     def unflatten(flat):
         return pack_tree(from_flat(flat, spec), carry0)
 
     def plain(p, flat, i):
         new = step(eqx.combine(p, static), unflatten(flat), i)
-        return to_flat(split_tree(new))[0]
+        return to_flat(split_tree(new, limits))[0]
 
     @jax.custom_jvp
     def fast(p, flat, i):
-        return to_flat(scalar_step(split_tree(p), from_flat(flat, spec), split(i)))[0]
+        flat_out = scalar_step(split_tree(p, limits), from_flat(flat, spec), split(i, limits))
+        return to_flat(flat_out)[0]
 
     @fast.defjvp
     def _fast_jvp(primals, tangents):

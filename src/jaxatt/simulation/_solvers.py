@@ -77,9 +77,10 @@ class DiffraxSolver(AbstractFixedStepSolver):
     """Any `diffrax.AbstractSolver` (e.g. `diffrax.Tsit5()`, `diffrax.Heun()`) at a fixed step.
 
     Every step is flagged as following a jump (`made_jump=True`), because the state may be
-    changed between steps (MRP shadow switch, quaternion renormalization) and the held control
-    may change at sample instants; first-same-as-last solvers therefore re-evaluate their first
-    stage, which is correct at the price of one evaluation per step.
+    changed between steps (the discrete updates: MRP shadow switch, quaternion
+    renormalization, controller memories) and the held control may change at sample instants;
+    first-same-as-last solvers therefore re-evaluate their first stage, which is correct at
+    the price of one evaluation per step.
     """
 
     solver: dfx.AbstractSolver
@@ -102,13 +103,13 @@ class DiffraxSolver(AbstractFixedStepSolver):
         return y1, state
 
 
-def as_fixed_step_solver(solver) -> AbstractFixedStepSolver:
+def as_fixed_step_solver(solver, where: str = "simulate") -> AbstractFixedStepSolver:
     """Accept a jaxatt solver or wrap a diffrax one; anything else is a clear error."""
     if isinstance(solver, AbstractFixedStepSolver):
         return solver
     if isinstance(solver, dfx.AbstractSolver):
         return DiffraxSolver(solver)
     raise ValueError(
-        "simulate: `solver` must be a jaxatt solver (RK4(), Euler()) or a diffrax solver, "
+        f"{where}: `solver` must be a jaxatt solver (RK4(), Euler()) or a diffrax solver, "
         f"got {type(solver).__name__}."
     )

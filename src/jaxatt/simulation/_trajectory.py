@@ -1,27 +1,26 @@
 """Simulation results."""
 
 import equinox as eqx
-import jax.numpy as jnp
-import jax.tree_util as jtu
 import numpy as np
-from jaxtyping import Array, Float, PyTree
+from jaxtyping import Array, Bool, Float, Int, PyTree
 
-from ._closed_loop import ClosedLoopState
+from ._status import Status
 
 
-class RESULTS(eqx.Enumeration):
-    """Outcome of a simulation, carried in `Trajectory.result` (batched under `vmap`)."""
+EVENT_CAPACITY = 16
+"""Number of event times kept per named event (the count is always exact)."""
 
-    successful = ""
-    nonfinite_state = (
-        "The closed-loop state became NaN or infinite: the loop diverged or the step `dt` is too "
-        "large for its fastest dynamics. Reduce `dt`, or check gains and initial conditions."
-    )
-    constraint_violated = (
-        "The controller reported leaving its admissible set (its `diagnostics` signal "
-        "`violation` was True at a saved time), e.g. a barrier function was crossed. The "
-        "trajectory is returned, but the controller's guarantees do not hold on it."
-    )
+
+class EventRecord(eqx.Module):
+    """The occurrences of one named discrete event (e.g. an MRP shadow switch).
+
+    - `count`: how many times it happened over the run (exact).
+    - `times`: the times [s] of the first [`EVENT_CAPACITY`][] occurrences, in order; unused
+      entries are NaN.
+    """
+
+    count: Int[Array, ""]
+    times: Float[Array, " capacity"]
 
 
 class Trajectory(eqx.Module):
@@ -30,18 +29,24 @@ class Trajectory(eqx.Module):
     Every array has time as its leading axis (after any batch axes added by `vmap`).
 
     - `ts`: save times [s], shape (T,).
-    - `states`: a [`ClosedLoopState`][] of stacked plant, reference and controller states.
-    - `signals`: recorded signals by name (see [`ClosedLoop.signals`][]): at least `"u"`
-      (applied control), `"u_cmd"`, `"attitude_error"`, `"rate_error"`, `"disturbance"`.
-    - `result`: a [`RESULTS`][] member: `RESULTS.successful`, `nonfinite_state`, or
-      `constraint_violated` (a controller's `diagnostics()["violation"]` was True at a saved
-      time). With `simulate(..., throw=True)` (the default) a failure raises instead.
+    - `states`: the closed loop's stacked states (a `ClosedLoopState` for a [`ClosedLoop`][]:
+      `plant`, `reference`, `controller`, `observer`, `actuator`).
+    - `signals`: recorded signals by name (see [`ClosedLoop`][]'s signals); `"u"` is the
+      applied control.
+    - `status`: a [`Status`][] code as an integer array (per sample when batched).
+    - `failure_time`: the time [s] at which the first failure was detected (`inf` when the run
+      succeeded).
+    - `events`: named discrete events (e.g. `"shadow_switch"`) as [`EventRecord`][]s.
+
+    With `simulate(..., throw=True)` (the default) a failure raises instead.
     """
 
     ts: Float[Array, " T"]
-    states: ClosedLoopState
+    states: PyTree[Array]
     signals: dict[str, Array]
-    result: RESULTS
+    status: Int[Array, ""]
+    failure_time: Float[Array, ""]
+    events: dict[str, EventRecord]
 
     @property
     def plant_states(self) -> PyTree[Array]:
@@ -56,36 +61,50 @@ class Trajectory(eqx.Module):
         return self.states.reference
 
     @property
+    def observer_states(self) -> PyTree[Array]:
+        return self.states.observer
+
+    @property
+    def actuator_states(self) -> PyTree[Array]:
+        return self.states.actuator
+
+    @property
     def controls(self) -> Float[Array, "T m"]:
         """The applied control (after the actuator model)."""
         return self.signals["u"]
 
     @property
-    def successful(self) -> Array:
-        """Boolean array: `result == RESULTS.successful` (per sample when batched)."""
-        return self.result == RESULTS.successful
+    def successful(self) -> Bool[Array, ""]:
+        """Boolean array: `status == Status.successful` (per sample when batched)."""
+        return self.status == int(Status.successful)
+
+    def status_names(self) -> str | list[str]:
+        """The [`Status`][] name(s) of this trajectory (a list when batched)."""
+        codes = np.asarray(self.status)
+        if codes.ndim == 0:
+            return Status(int(codes)).name
+        return [Status(int(c)).name for c in codes.reshape(-1)]
 
     def to_numpy(self) -> dict[str, object]:
-        """Plain NumPy copies, for plotting and saving: `{"ts", "plant", "reference",
-        "controller", "signals", "result"}` (states keep their field names as dicts)."""
+        """Plain NumPy copies, for plotting and saving: `{"ts", "states", "signals",
+        "status", "failure_time", "events"}` (modules become dicts of their fields)."""
 
         def convert(tree):
             if tree is None:
                 return None
             if isinstance(tree, eqx.Module):
                 return {name: convert(getattr(tree, name)) for name in tree.__dataclass_fields__}
+            if isinstance(tree, dict):
+                return {k: convert(v) for k, v in tree.items()}
+            if isinstance(tree, (tuple, list)):
+                return [convert(v) for v in tree]
             return np.asarray(tree)
 
         return {
             "ts": np.asarray(self.ts),
-            "plant": convert(self.states.plant),
-            "reference": convert(self.states.reference),
-            "controller": convert(self.states.controller),
+            "states": convert(self.states),
             "signals": {k: np.asarray(v) for k, v in self.signals.items()},
-            "result": np.asarray(self.result._value),
+            "status": np.asarray(self.status),
+            "failure_time": np.asarray(self.failure_time),
+            "events": convert(self.events),
         }
-
-
-def all_finite(tree: PyTree[Array]) -> Array:
-    leaves = [jnp.all(jnp.isfinite(leaf)) for leaf in jtu.tree_leaves(tree)]
-    return jnp.all(jnp.stack(leaves)) if leaves else jnp.array(True)

@@ -4,8 +4,8 @@
     ```python
     from jaxatt import tune
     params = {
-        "rho": tune.Parameter(lambda m: m.controller.reaching_law.rho, tune.Positive()),
-        "alpha": tune.Parameter(lambda m: m.controller.reaching_law.alpha, tune.Interval(0, 1)),
+        "rho": tune.Parameter("controller.reaching_law.rho", tune.Positive()),
+        "alpha": tune.Parameter("controller.reaching_law.alpha", tune.Interval(0, 1)),
     }
     objective = tune.SettlingObjective(t1=10.0, dt=5e-3, tolerance=1e-3)
     result = tune.tune(loop, params, objective, x0s, steps=30, checkpoint="run.eqx")
@@ -18,20 +18,22 @@ from ._checkpoint import (
     save_checkpoint as save_checkpoint,
 )
 from ._loop import (
+    NonFiniteLossError as NonFiniteLossError,
     TuneResult as TuneResult,
     evaluate as evaluate,
     loss_and_grad as loss_and_grad,
     tune as tune,
 )
 from ._objective import (
+    SAMPLE_METRICS as SAMPLE_METRICS,
     AbstractAggregate as AbstractAggregate,
+    AbstractObjective as AbstractObjective,
     CVaR as CVaR,
     Mean as Mean,
     Penalty as Penalty,
     Quantile as Quantile,
     SettlingObjective as SettlingObjective,
     WorstCase as WorstCase,
-    attitude_error_norm as attitude_error_norm,
 )
 from ._parameters import (
     Parameter as Parameter,

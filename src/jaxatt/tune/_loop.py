@@ -2,6 +2,7 @@
 checkpoints, resume."""
 
 import dataclasses
+import math
 import os
 import pathlib
 from collections.abc import Callable, Mapping
@@ -13,8 +14,43 @@ import numpy as np
 import optax
 from jaxtyping import Array, PyTree
 
+from .._validation import check_tree_finite
 from ._checkpoint import TuneState, load_checkpoint, save_checkpoint
+from ._objective import AbstractObjective
 from ._parameters import apply, check_parameters, constrained, initial_unconstrained
+
+
+class NonFiniteLossError(FloatingPointError):
+    """Raised by [`tune`][] when a step's loss or gradient is not finite.
+
+    - `step`: the step (1-based) whose loss or gradient was not finite;
+    - `loss`: that loss;
+    - `nonfinite_gradients`: names of the parameters with a non-finite gradient entry;
+    - `gains`: the gains at which it was evaluated (name -> NumPy array).
+
+    The checkpoint (if any) holds the state after the last good step; nothing of the failing
+    step is saved.
+    """
+
+    def __init__(self, step: int, loss: float, nonfinite_gradients: list[str], gains: dict):
+        self.step = step
+        self.loss = loss
+        self.nonfinite_gradients = nonfinite_gradients
+        self.gains = gains
+        what = []
+        if not math.isfinite(loss):
+            what.append(f"the loss is {loss}")
+        if nonfinite_gradients:
+            what.append(f"the gradient of {', '.join(nonfinite_gradients)} is not finite")
+        shown = {k: np.round(v, 6).tolist() for k, v in gains.items()}
+        super().__init__(
+            f"tune: at step {step}, {' and '.join(what)} (gains {shown}). A sample diverged or "
+            "failed (its convergence time is infinite), or the gains left the region where "
+            "the loop is well posed. Tuning stopped; the checkpoint holds the last good step "
+            f"({step - 1}). Lower the learning rate, bound the gains with tighter transforms, "
+            "shorten dt, or evaluate the batch at these gains (tune.evaluate) to see which "
+            "samples failed (aux['status'])."
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,7 +90,7 @@ def loss_and_grad(
     arguments compiles the step once for both (see `tune` on static arguments).
     """
     check_parameters(template, parameters)
-    _check_inputs(inputs)
+    _check_inputs(objective, template, inputs)
     return _loss_and_grad(dict(unconstrained), template, parameters, objective, inputs)
 
 
@@ -72,7 +108,7 @@ def _update(unconstrained, opt_state, grads, optimizer):
     return optax.apply_updates(unconstrained, updates), opt_state
 
 
-def _check_inputs(inputs) -> None:
+def _check_inputs(objective, module, inputs) -> None:
     leaves = jtu.tree_leaves(inputs)
     if not leaves:
         raise ValueError("tune: `inputs` (the training batch) is empty.")
@@ -85,6 +121,9 @@ def _check_inputs(inputs) -> None:
     (size,) = sizes
     if size == 0:
         raise ValueError("tune: `inputs` (the training batch) is empty: it has 0 samples.")
+    check_tree_finite("tune", "inputs", inputs)
+    if isinstance(objective, AbstractObjective):
+        objective.check(module, inputs)
 
 
 def tune(
@@ -119,15 +158,20 @@ def tune(
 
     **Returns:** a [`TuneResult`][].
 
-    The configuration is validated before anything is compiled: parameter selectors, initial
-    values inside their transforms' ranges, a non-empty batch, `steps > 0`.
+    **Raises** [`NonFiniteLossError`][] when a step's loss or gradient is not finite (e.g. a
+    sample diverged at the current gains): tuning stops at once, naming the step, and the
+    checkpoint keeps the last good step. A run never ends with NaN gains.
+
+    The configuration is validated before anything is compiled: parameter paths, initial
+    values finite and inside their transforms' ranges, a non-empty, finite batch of valid
+    initial states, `steps > 0`.
 
     Each step runs two compiled programs: [`loss_and_grad`][] (the closed loop and its reverse
-    pass, nearly all the compile time) and the optimizer update (small). The parameters'
-    `where` selectors are static arguments of the first, and the optimizer of the second,
-    compared by identity (they are functions). Reuse the same objects across runs (or
-    module-level functions as selectors) and the runs share the compiled programs; a lambda
-    per run compiles the gradient again, a fresh `optax.adam(...)` the update.
+    pass, nearly all the compile time) and the optimizer update (small). Parameters are
+    identified by their paths (strings), so equal tuning problems share the first program
+    whatever objects describe them; the optimizer is a static argument of the second,
+    compared by identity (optax transformations are closures): reuse one object across runs
+    to share the update too (it costs well under a second to compile).
     """
     from tqdm import tqdm
 
@@ -144,7 +188,7 @@ def tune(
     if resume and checkpoint is None:
         raise ValueError("tune: `resume=True` needs a `checkpoint` path.")
     check_parameters(template, parameters)
-    _check_inputs(inputs)
+    _check_inputs(objective, template, inputs)
     if optimizer is None:
         optimizer = _DEFAULT_OPTIMIZER
 
@@ -170,6 +214,16 @@ def tune(
             (loss, aux), grads = _loss_and_grad(
                 state.unconstrained, template, parameters, objective, inputs
             )
+            loss_value = float(loss)
+            bad = [
+                name for name, g in grads.items() if not np.all(np.isfinite(np.asarray(g)))
+            ]
+            if not math.isfinite(loss_value) or bad:
+                write(state)  # the last good step, never the failing one
+                gains_now = constrained(state.unconstrained, parameters)
+                raise NonFiniteLossError(
+                    k + 1, loss_value, bad, {n: np.asarray(v) for n, v in gains_now.items()}
+                )
             u, opt_state = _update(state.unconstrained, state.opt_state, grads, optimizer)
             state = TuneState(
                 step=jnp.array(k + 1),
@@ -178,11 +232,11 @@ def tune(
                 losses=state.losses.at[k].set(loss),
             )
             bar.update()
-            bar.set_postfix(loss=f"{float(loss):.4g}")
+            bar.set_postfix(loss=f"{loss_value:.4g}")
             if (k + 1) % checkpoint_every == 0:
                 write(state)
             if callback is not None:
-                callback(k + 1, float(loss), aux)
+                callback(k + 1, loss_value, aux)
     except KeyboardInterrupt:
         write(state)
         raise
@@ -200,7 +254,12 @@ def tune(
 
 
 def evaluate(module: PyTree, objective: Callable, inputs: PyTree) -> tuple[Array, dict[str, Array]]:
-    """`objective(module, inputs)` compiled once (for validation on a held-out batch)."""
+    """`objective(module, inputs)` compiled once (for validation on a held-out batch).
+
+    The inputs are checked first, as by [`tune`][]. A failed sample shows in the aux
+    (`aux["status"]`, `inf` times) and makes the loss `inf`.
+    """
+    _check_inputs(objective, module, inputs)
     return _evaluate(module, objective, inputs)
 
 

@@ -1,35 +1,58 @@
-r"""Tuning objectives over a Monte Carlo batch: a differentiable convergence time, aggregated
-over the batch (mean, quantile, CVaR, worst case), plus penalties on torque and chattering.
+r"""Tuning objectives over a Monte Carlo batch: a convergence time a tuner can trust, aggregated
+over the batch (mean, quantile, CVaR, worst case), plus penalties on torque, effort, chattering.
 
-**Convergence time.** For each sample, $T$ is the last exit time of $\|x(t)\|$ from the band
-$\|x\| \le \text{tol}$, interpolated between saved samples (`jaxatt.metrics.settling_time`).
-Its gradient is the implicit-function derivative of the interpolated crossing, which equals
-the finite-difference derivative of the same time wherever the crossing is transversal and
-its sample index does not change (tested). A sample that has not settled by $t_1$ gets
-$t_1 + \ln(x(t_1)/\text{tol})$ instead, continuous with the settled branch and still
-decreasing as the sample gets closer to settling, so the objective is finite and its gradient
-informative for every sample.
+**Convergence time** ([`jaxatt.metrics.convergence_time`][]). For each sample,
+
+$$T_c = t_0 + T_{\mathrm{out}} + \mathbb 1[x(t_1) > \mathrm{tol}]\;
+\frac{\ln(x(t_1)/\mathrm{tol})}{\hat\lambda},$$
+
+$T_{\mathrm{out}}$ the time the error magnitude $x$ spends outside the band (linear
+interpolation between saved samples) and $\hat\lambda$ the decay rate measured over the last
+tenth of the horizon (floored at one e-fold per horizon). It is continuous in the gains (a
+late bump adds its duration; it does not jump the result to its end, as the last-exit time
+does), continuous across the settled/unsettled boundary, finite for every sample that does
+not diverge, and differentiable almost everywhere; for a sample that decays through the band
+once it equals the exact last-exit time ([`jaxatt.metrics.settling_time`][], reported as
+`settling_time`). Its bias against the sample spacing $\Delta t$ is the linear
+interpolation's, at most about $\lambda\Delta t^2/8$ per crossing.
+
+**Trust.** The batch is simulated by the batch runner Monte Carlo uses
+([`jaxatt.montecarlo.run_batch`][], same solver, sampling and performance options). A
+sample that fails (non-finite state, invalid plant, constraint violation) has `inf`
+convergence time, so the loss is `inf` and [`tune`][] stops with an error naming the step; a
+diverged sample can never lower the loss.
 """
 
 import abc
-from collections.abc import Callable
 
+import diffrax as dfx
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-from jaxtyping import Array, Float
+import jax.tree_util as jtu
+from jaxtyping import Array, Float, PyTree
 
 from .._validation import check_in_open_interval, check_nonnegative, check_positive
-from ..metrics import chattering, control_effort, peak, settling_time
-from ..numerics import safe_norm
-from ..simulation import ClosedLoop, Trajectory, simulate
-
-
-def attitude_error_norm(traj: Trajectory) -> Float[Array, " T"]:
-    """$\\|e_v\\|$ (quaternion error vector part) or $\\|\\sigma_e\\|$ (MRP error)."""
-    error = traj.signals["attitude_error"]
-    vector = error[..., 1:] if error.shape[-1] == 4 else error
-    return safe_norm(vector)
+from ..metrics import (
+    AbstractMetric,
+    AbstractNorm,
+    Chattering,
+    ConvergenceTime,
+    Effort,
+    Euclidean,
+    Peak,
+    SettlingTime,
+)
+from ..montecarlo import run_batch
+from ..simulation import (
+    RK4,
+    AbstractClosedLoop,
+    AbstractFixedStepSolver,
+    AbstractSampling,
+    Continuous,
+    Performance,
+    Simulation,
+)
 
 
 class AbstractAggregate(eqx.Module):
@@ -81,10 +104,23 @@ class WorstCase(AbstractAggregate):
         return jnp.max(values)
 
 
+SAMPLE_METRICS = (
+    "settling_time",
+    "objective_time",
+    "peak_torque",
+    "peak_command",
+    "effort",
+    "chattering",
+    "settled",
+    "successful",
+    "status",
+)
+
+
 class Penalty(eqx.Module):
     r"""`weight * mean(max(0, metric - bound)^2)` over the batch for a per-sample metric.
 
-    `metric` is a key of [`SettlingObjective.sample_metrics`][]: `"peak_torque"`,
+    `metric` is a key of the objective's per-sample metrics: `"peak_torque"`,
     `"peak_command"`, `"effort"` or `"chattering"`.
     """
 
@@ -101,44 +137,48 @@ class Penalty(eqx.Module):
         return self.weight * jnp.mean(jax.nn.relu(metrics[self.metric] - self.bound) ** 2)
 
 
-SAMPLE_METRICS = (
-    "settling_time",
-    "objective_time",
-    "peak_torque",
-    "peak_command",
-    "effort",
-    "chattering",
-    "settled",
-    "successful",
-)
+class AbstractObjective(eqx.Module):
+    """`objective(module, inputs) -> (loss, aux)`, with a host-side `check(module, inputs)`
+    that [`tune`][] runs before compiling anything."""
+
+    @abc.abstractmethod
+    def __call__(self, module: PyTree, inputs: PyTree) -> tuple[Array, dict[str, Array]]:
+        """The loss and its per-sample metrics."""
+
+    @abc.abstractmethod
+    def check(self, module: PyTree, inputs: PyTree) -> None:
+        """Raise `ValueError` on inputs that cannot be evaluated (before compiling)."""
 
 
-class SettlingObjective(eqx.Module):
-    """Aggregate of a differentiable convergence time over a batch, plus penalties.
+class SettlingObjective(AbstractObjective):
+    """Aggregate of the convergence time over a batch, plus penalties.
 
     **Arguments:**
-    - `t1`, `dt`: horizon and step of each simulation [s] (static; `t0 = 0`).
-    - `tolerance`: the band of the convergence time (on `signal`).
+    - `t1`, `dt`: horizon and step of each simulation [s] (static; `t0 = 0` unless given).
+    - `tolerance`: the band of the convergence time (on `norm(signal)`).
     - `aggregate`: `Mean()` (default), `Quantile(q)`, `CVaR(alpha)` or `WorstCase()`.
     - `penalties`: [`Penalty`][]s added to the loss.
-    - `signal`: `traj -> (T,)` magnitude whose settling is timed; default
-      [`attitude_error_norm`][].
-    - `chattering_window`: `(start, end)` [s] of the chattering metric (default the last
-      half of the horizon).
-    - `save_every`: saved steps (the crossing is interpolated between saves).
+    - `signal`: the name of the trajectory signal whose convergence is timed; default
+      `"attitude_error_vector"` ($e_v$ for quaternion plants, $\\sigma_e$ for MRP plants).
+    - `norm`: how the signal is reduced to a magnitude (default
+      [`jaxatt.metrics.Euclidean`][]`()`).
+    - `chattering_window`: `(start, end)` [s] of the chattering metric (default the last half
+      of the horizon).
+    - `save_every`, `sampling`, `solver`, `performance`, `t0`: as
+      [`jaxatt.montecarlo.monte_carlo`][] (the crossing is interpolated between saves).
 
     Calling it as `objective(closed_loop, x0s)` (a batch of plant states with a leading axis)
-    returns `(loss, aux)`, `aux` holding per-sample metrics for reports.
+    returns `(loss, aux)`, `aux` holding the per-sample metrics of `SAMPLE_METRICS` (the
+    metric objects are `sample_metrics`; a failed sample gets `inf` times and NaN otherwise):
+    `settling_time` (exact last exit, `inf` if unsettled), `objective_time` (the
+    convergence time above), `peak_torque` and `peak_command` (max |u_i|, applied and
+    commanded), `effort`, `chattering`, `settled`, `successful`, `status`.
     """
 
-    t1: float = eqx.field(static=True)
-    dt: float = eqx.field(static=True)
-    tolerance: Float[Array, ""]
+    simulation: Simulation
     aggregate: AbstractAggregate
     penalties: tuple[Penalty, ...]
-    signal: Callable = eqx.field(static=True)
-    chattering_window: tuple[float, float] = eqx.field(static=True)
-    save_every: int = eqx.field(static=True)
+    sample_metrics: dict[str, AbstractMetric]
 
     def __init__(
         self,
@@ -147,56 +187,98 @@ class SettlingObjective(eqx.Module):
         tolerance: float | int,
         aggregate: AbstractAggregate | None = None,
         penalties: tuple[Penalty, ...] = (),
-        signal: Callable = attitude_error_norm,
+        signal: str = "attitude_error_vector",
+        norm: AbstractNorm | None = None,
         chattering_window: tuple[float, float] | None = None,
         save_every: int = 1,
+        *,
+        sampling: AbstractSampling = Continuous(),
+        solver: AbstractFixedStepSolver | dfx.AbstractSolver = RK4(),
+        performance: Performance | None = None,
+        t0: float = 0.0,
     ):
-        if not (t1 > 0 and dt > 0):
-            raise ValueError(f"SettlingObjective: need t1 > 0 and dt > 0, got t1={t1}, dt={dt}.")
-        self.t1, self.dt = float(t1), float(dt)
-        self.tolerance = check_positive("SettlingObjective", "tolerance", tolerance)
+        where = "SettlingObjective"
+        self.simulation = Simulation(
+            t0,
+            t1,
+            dt,
+            sampling=sampling,
+            solver=solver,
+            save_every=save_every,
+            performance=performance,
+            where=where,
+        )
+        tolerance = check_positive(where, "tolerance", tolerance)
         self.aggregate = Mean() if aggregate is None else aggregate
         for p in penalties:
             if not isinstance(p, Penalty) or p.metric not in SAMPLE_METRICS:
                 raise ValueError(
-                    f"SettlingObjective: `penalties` must be Penalty objects on one of "
+                    f"{where}: `penalties` must be Penalty objects on one of "
                     f"{SAMPLE_METRICS}, got {p!r}."
                 )
         self.penalties = tuple(penalties)
-        self.signal = signal
-        window = (0.5 * t1, t1) if chattering_window is None else chattering_window
-        self.chattering_window = (float(window[0]), float(window[1]))
-        self.save_every = int(save_every)
-
-    def sample_metrics(self, closed_loop: ClosedLoop, x0) -> dict[str, Array]:
-        """Simulate one sample and compute its metrics (differentiable)."""
-        traj = simulate(
-            closed_loop, x0, 0.0, self.t1, dt=self.dt, save_every=self.save_every, throw=False
-        )
-        x = self.signal(traj)
-        time = settling_time(traj.ts, x, self.tolerance)
-        settled = jnp.isfinite(time)
-        excess = jnp.log(jnp.maximum(x[-1], self.tolerance) / self.tolerance)
-        objective_time = jnp.where(settled, time, self.t1 + excess)
-        u = traj.signals["u"]
-        return {
-            "settling_time": time,
-            "objective_time": objective_time,
-            "peak_torque": peak(u),
-            "peak_command": peak(traj.signals["u_cmd"]),
-            "effort": control_effort(traj.ts, u),
-            "chattering": chattering(traj.ts, u, *self.chattering_window),
-            "settled": settled,
-            "successful": traj.successful,
+        if not isinstance(signal, str):
+            raise ValueError(
+                f"{where}: `signal` must be the name of a trajectory signal (e.g. "
+                f"'attitude_error_vector'), got {signal!r}."
+            )
+        norm = Euclidean() if norm is None else norm
+        start, end = (0.5 * (t0 + t1), t1) if chattering_window is None else chattering_window
+        # Built once, here, from checked values: inside the compiled loss they are plain
+        # pytrees (no run-time checks, no host callbacks).
+        self.sample_metrics = {
+            "settling_time": SettlingTime(signal, tolerance, norm),
+            "objective_time": ConvergenceTime(signal, tolerance, norm),
+            "peak_torque": Peak("u"),
+            "peak_command": Peak("u_cmd"),
+            "effort": Effort("u"),
+            "chattering": Chattering("u", start, end),
         }
 
-    def batch_metrics(self, closed_loop: ClosedLoop, x0s) -> dict[str, Array]:
-        """Per-sample metrics over a batch (vmap over the leading axis of `x0s`)."""
-        return jax.vmap(lambda x0: self.sample_metrics(closed_loop, x0))(x0s)
+    @property
+    def t1(self) -> float:
+        return self.simulation.t1
 
-    def __call__(self, closed_loop: ClosedLoop, x0s) -> tuple[Array, dict[str, Array]]:
+    @property
+    def dt(self) -> float:
+        return self.simulation.dt
+
+    @property
+    def tolerance(self) -> Float[Array, ""]:
+        return self.sample_metrics["objective_time"].tolerance
+
+    def check(self, closed_loop: AbstractClosedLoop, x0s: PyTree) -> None:
+        if not isinstance(closed_loop, AbstractClosedLoop):
+            raise ValueError(
+                "SettlingObjective: the tuned module must be a jaxatt closed loop, got "
+                f"{type(closed_loop).__name__}."
+            )
+        n = _batch_size(x0s)
+        closed_loop.check_state(x0s, "inputs", (n,))
+
+    def batch_metrics(self, closed_loop: AbstractClosedLoop, x0s: PyTree) -> dict[str, Array]:
+        """Per-sample metrics over a batch (the leading axis of `x0s`)."""
+        sim = self.simulation.with_performance(
+            self.simulation.performance.resolve(_batch_size(x0s))
+        )
+        result = run_batch(closed_loop, x0s, sim, self.sample_metrics)
+        metrics = dict(result.metrics)
+        metrics["successful"] = result.successful
+        metrics["settled"] = result.successful & jnp.isfinite(metrics["settling_time"])
+        metrics["status"] = result.status
+        return metrics
+
+    def __call__(self, closed_loop: AbstractClosedLoop, x0s: PyTree):
         metrics = self.batch_metrics(closed_loop, x0s)
         loss = self.aggregate(metrics["objective_time"])
         for penalty in self.penalties:
             loss = loss + penalty(metrics)
         return loss, metrics
+
+
+def _batch_size(tree: PyTree) -> int:
+    leaves = jtu.tree_leaves(tree)
+    if not leaves or jnp.ndim(leaves[0]) == 0:
+        raise ValueError("tune: the batch of initial states must have a leading batch axis.")
+    return int(jnp.shape(leaves[0])[0])
+

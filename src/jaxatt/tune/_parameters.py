@@ -1,26 +1,51 @@
 """Which fields of a module are tuned, and how they are constrained."""
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax._src.lax.lax import _convert_element_type  # keeps weak types (see `_like`)
 from jaxtyping import Array, PyTree
 
+from .._paths import get_path, parse_path, path_selector
 from ._transforms import AbstractTransform
 
 
 class Parameter(eqx.Module):
-    """A tuned field: `where(module)` selects the array, `transform` keeps it in range.
+    """A tuned field: the array at `path` in the module, kept in range by `transform`.
+
+    `path` is a dotted path of attribute names (and `[k]` indices for tuples or dicts), e.g.
+    `"controller.reaching_law.rho"`. Paths are strings, so two equal tuning problems are equal
+    static arguments and share their compiled programs (no module-level selector functions or
+    cached optimizers needed).
 
     !!! example
-        `Parameter(lambda loop: loop.controller.reaching_law.rho, Positive())`
+        `Parameter("controller.reaching_law.rho", Positive())`
     """
 
-    where: Callable = eqx.field(static=True)
+    path: str = eqx.field(static=True)
     transform: AbstractTransform
+
+    def __init__(self, path: str, transform: AbstractTransform):
+        if callable(path) and not isinstance(path, str):
+            raise ValueError(
+                "Parameter: `path` must be a dotted path string such as "
+                "'controller.reaching_law.rho' (hashable, so equal problems share compiled "
+                f"programs), got the callable {path!r}."
+            )
+        parse_path(path)
+        if not isinstance(transform, AbstractTransform):
+            raise ValueError(
+                "Parameter: `transform` must be a jaxatt.tune transform (Positive(), "
+                f"Interval(a, b), GreaterThan(a), Identity()), got {type(transform).__name__}."
+            )
+        self.path = path
+        self.transform = transform
+
+    def where(self, module: PyTree) -> Array:
+        """The tuned array of `module`."""
+        return get_path(module, self.path)
 
 
 Parameters = Mapping[str, Parameter]
@@ -33,23 +58,27 @@ def check_parameters(template: eqx.Module, parameters: Mapping) -> None:
     for name, parameter in parameters.items():
         if not isinstance(parameter, Parameter):
             raise ValueError(
-                f"tune: parameter {name!r} must be a jaxatt.tune.Parameter(where, transform), "
+                f"tune: parameter {name!r} must be a jaxatt.tune.Parameter(path, transform), "
                 f"got {type(parameter).__name__}."
             )
         try:
             value = parameter.where(template)
         except (AttributeError, TypeError, KeyError, IndexError) as error:
             raise ValueError(
-                f"tune: parameter {name!r}: its `where` does not select a field of the "
-                f"template ({type(error).__name__}: {error})."
+                f"tune: parameter {name!r}: its path {parameter.path!r} does not select a field "
+                f"of the template ({type(error).__name__}: {error})."
             ) from None
         if not isinstance(value, jax.Array) or isinstance(value, jax.core.Tracer):
             raise ValueError(
-                f"tune: parameter {name!r} must select an array field of the template, got "
-                f"{type(value).__name__}."
+                f"tune: parameter {name!r} ({parameter.path!r}) must select an array field of "
+                f"the template, got {type(value).__name__}."
             )
         if not jnp.issubdtype(value.dtype, jnp.floating):
             raise ValueError(f"tune: parameter {name!r} must be a floating array.")
+        if not np.all(np.isfinite(np.asarray(value))):
+            raise ValueError(
+                f"tune: parameter {name!r} has the non-finite initial value {np.asarray(value)}."
+            )
         if not parameter.transform.contains(value):
             raise ValueError(
                 f"tune: parameter {name!r} has initial value {np.asarray(value)} outside its "
@@ -60,8 +89,7 @@ def check_parameters(template: eqx.Module, parameters: Mapping) -> None:
 
 def initial_unconstrained(template: eqx.Module, parameters: Parameters) -> dict[str, Array]:
     """The unconstrained variables that reproduce the template's current gains."""
-    # Strongly typed arrays: optimizer updates are strongly typed, and a weak-typed start would
-    # compile the step twice.
+    # Strongly typed arrays: optimizer updates are strongly typed.
     return {
         name: jnp.asarray(u, dtype=u.dtype)
         for name, p in parameters.items()
@@ -75,20 +103,12 @@ def constrained(unconstrained: dict[str, Array], parameters: Parameters) -> dict
 
 
 def apply(template: eqx.Module, parameters: Parameters, unconstrained: dict[str, Array]) -> PyTree:
-    """The template with every tuned field replaced (`eqx.tree_at`)."""
+    """The template with every tuned field replaced (`eqx.tree_at`), in the dtype of the field
+    it replaces (jaxatt's constructors store strongly typed arrays, so a tuned module has the
+    template's exact types and reuses its compiled programs)."""
     module = template
     for name, value in constrained(unconstrained, parameters).items():
-        old = parameters[name].where(module)
-        module = eqx.tree_at(parameters[name].where, module, _like(value, old))
+        select = path_selector(parameters[name].path)
+        old = select(module)
+        module = eqx.tree_at(select, module, jnp.asarray(value, dtype=old.dtype))
     return module
-
-
-def _like(value: Array, old: Array) -> Array:
-    """`value` with the dtype *and weak type* of `old`.
-
-    Gains built from Python floats are weakly typed; a tuned module whose gains are strongly
-    typed would not match the template's compiled programs and would compile them again.
-    `lax.convert_element_type` always returns a strong type, hence the private converter.
-    """
-    weak = bool(jax.typeof(old).weak_type)
-    return _convert_element_type(value, old.dtype, weak_type=weak)

@@ -15,10 +15,8 @@ import time
 import jax.random as jr
 import numpy as np
 
-from .metrics import chattering, peak, settling_time
-from .scenarios import chen2022_tuning, chen2022_two_phase_power as chen
-from .simulation import Trajectory
-from .tune import attitude_error_norm
+from ..metrics import AbstractMetric, Chattering, Peak, SettlingTime
+from . import chen2022_tuning, chen2022_two_phase_power as chen
 
 
 MC_SAMPLES = 128
@@ -27,12 +25,13 @@ MC_DT = 5e-3
 TOLERANCE = 1e-3
 
 
-def settling_metrics(traj: Trajectory) -> dict:
-    """Per-sample metrics of the demo's Monte Carlo: settling of ||e_v|| below 1e-3."""
+def settling_metrics() -> dict[str, AbstractMetric]:
+    """Per-sample metrics of the demo's Monte Carlo: settling of ||e_v|| below 1e-3, peak
+    torque, chattering over the last 5 s."""
     return {
-        "settling_time": settling_time(traj.ts, attitude_error_norm(traj), TOLERANCE),
-        "peak_torque": peak(traj.signals["u"]),
-        "chattering": chattering(traj.ts, traj.signals["u"], MC_HORIZON - 5.0, MC_HORIZON),
+        "settling_time": SettlingTime("attitude_error_vector", TOLERANCE),
+        "peak_torque": Peak("u"),
+        "chattering": Chattering("u", MC_HORIZON - 5.0, MC_HORIZON),
     }
 
 
@@ -52,8 +51,8 @@ def run(
     """
     import matplotlib.pyplot as plt
 
-    from . import plot
-    from .montecarlo import monte_carlo
+    from .. import plot
+    from ..montecarlo import monte_carlo
 
     out = pathlib.Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -66,18 +65,15 @@ def run(
     n = 16 if short else MC_SAMPLES
     x0s = chen2022_tuning.initial_states(jr.key(42), n)
     mc = {}
+    metrics = settling_metrics()
     for name in chen.CONTROLLERS:
-        result = monte_carlo(
-            chen.build(name), x0s, 0.0, MC_HORIZON, dt=MC_DT, metrics=settling_metrics
-        )
+        result = monte_carlo(chen.build(name), x0s, 0.0, MC_HORIZON, dt=MC_DT, metrics=metrics)
         mc[name] = result
     mc_summary = {name: r.summary("settling_time") for name, r in mc.items()}
     timings["monte_carlo"] = time.perf_counter() - start
     with plot.style():
         fig, ax = plt.subplots(figsize=(6, 3.5), layout="constrained")
-        plot.plot_settling_distribution(
-            {name: np.asarray(r.metrics["settling_time"]) for name, r in mc.items()}, ax=ax
-        )
+        plot.plot_settling_distribution(mc, ax=ax)
         ax.set_xlabel("settling time of $\\|e_v\\| < 10^{-3}$ [s]")
         ax.set_title(f"{n} random initial attitudes within 60 deg")
         fig.savefig(out / "montecarlo_cdf.png")

@@ -24,6 +24,14 @@ class AbstractSignal(eqx.Module):
     def __call__(self, t: RealScalarLike) -> Float[Array, "..."]:
         """The signal's value at time `t`."""
 
+    @abc.abstractmethod
+    def bound(self) -> Float[Array, "..."] | None:
+        """An elementwise bound $b \\ge |s(t)|$ valid for every $t$, or `None` if unknown.
+
+        Used for checks that must hold along a whole run, e.g. that $J_0 + \\Delta J(t)$ stays
+        positive definite ([`jaxatt.plants.RigidBody`][]).
+        """
+
     def __add__(self, other: "AbstractSignal") -> "Sum":
         if not isinstance(other, AbstractSignal):
             return NotImplemented
@@ -41,6 +49,9 @@ class Constant(AbstractSignal):
     def __call__(self, t: RealScalarLike) -> Float[Array, "..."]:
         del t
         return self.value
+
+    def bound(self) -> Float[Array, "..."]:
+        return jnp.abs(self.value)
 
 
 class Sinusoid(AbstractSignal):
@@ -93,6 +104,12 @@ class Sinusoid(AbstractSignal):
         value = self.amplitude * jnp.sin(self.frequency * t + self.phase) + self.offset
         return jnp.broadcast_to(value, shape)
 
+    def bound(self) -> Float[Array, "..."]:
+        shape = jnp.broadcast_shapes(
+            self.amplitude.shape, self.frequency.shape, self.phase.shape, self.offset.shape
+        )
+        return jnp.broadcast_to(jnp.abs(self.amplitude) + jnp.abs(self.offset), shape)
+
 
 class Pulse(AbstractSignal):
     r"""A rectangular pulse of height `amplitude` on $[t_s, t_s + w)$, optionally repeated.
@@ -128,7 +145,7 @@ class Pulse(AbstractSignal):
         else:
             width_value = self.width
             self.period = check(
-                "Pulse", "period", period, lambda p: p > width_value, "must exceed `width`"
+                "Pulse", "period", period, lambda xp, p: p > width_value, "must exceed `width`"
             )
 
     def __call__(self, t: RealScalarLike) -> Float[Array, "..."]:
@@ -137,6 +154,9 @@ class Pulse(AbstractSignal):
             elapsed = jnp.where(elapsed >= 0, jnp.mod(elapsed, self.period), elapsed)
         on = (elapsed >= 0) & (elapsed < self.width)
         return jnp.where(on, self.amplitude, jnp.zeros_like(self.amplitude))
+
+    def bound(self) -> Float[Array, "..."]:
+        return jnp.abs(self.amplitude)
 
 
 class Sum(AbstractSignal):
@@ -159,12 +179,21 @@ class Sum(AbstractSignal):
             total = total + term(t)
         return total
 
+    def bound(self) -> Float[Array, "..."] | None:
+        bounds = [term.bound() for term in self.terms]
+        if any(b is None for b in bounds):
+            return None
+        total = bounds[0]
+        for b in bounds[1:]:
+            total = total + b
+        return total
+
 
 def check_signal_shape(where: str, name: str, signal: AbstractSignal, shape: tuple[int, ...]):
     """Evaluate `signal` at t = 0 abstractly and require `shape` (a trace-time check)."""
     if not isinstance(signal, AbstractSignal):
         raise ValueError(
-            f"{where}: `{name}` must be a jaxatt.plants signal (Constant, Sinusoid, Pulse, Sum, "
+            f"{where}: `{name}` must be a jaxatt.signals signal (Constant, Sinusoid, Pulse, Sum, "
             f"...), got {type(signal).__name__}."
         )
     out = jax.eval_shape(signal, 0.0)

@@ -1,0 +1,153 @@
+r"""The fixed-step time loop every simulation runs (`simulate`, the batch runner, objectives).
+
+One step from $t_i$ to $t_{i+1} = t_i + dt$:
+
+1. under a zero-order hold, at a sample instant ($i$ a multiple of the steps per sample,
+   $i > 0$): the flight software's discrete update, then its held outputs (with an optional
+   one-period delay of the command);
+2. one solver step of the continuous dynamics;
+3. the physical parts' discrete updates at $t_{i+1}$ (and their events), then, under
+   continuous control, the flight software's;
+4. the status check at $t_{i+1}$ (the first failure and its time are kept).
+
+Signals are recorded at the save times from the state after these updates.
+"""
+
+import equinox as eqx
+import jax
+import jax.lax as lax
+import jax.numpy as jnp
+import jax.tree_util as jtu
+from jaxtyping import Array, PyTree
+
+from ._closed_loop import AbstractClosedLoop, HeldOutputs
+from ._scalarize import scalarized_loop_step
+from ._settings import Simulation
+from ._trajectory import EVENT_CAPACITY, EventRecord, Trajectory
+
+
+def _record_events(events: dict, flags: dict, t: Array) -> dict:
+    out = {}
+    for name, record in events.items():
+        flag = jnp.asarray(flags[name])
+        slot = jnp.arange(EVENT_CAPACITY) == record.count
+        times = jnp.where(flag & slot, t, record.times)
+        out[name] = EventRecord(record.count + flag.astype(record.count.dtype), times)
+    return out
+
+
+def integrate(closed_loop: AbstractClosedLoop, x0: PyTree[Array], sim: Simulation) -> Trajectory:
+    """Run the time loop of `sim` from the plant state `x0` (traceable; no host checks).
+
+    `sim.performance.scalarize` must already be decided (`Performance.resolve`).
+    """
+    dtype = jnp.result_type(*jtu.tree_leaves(x0))
+    t0, dt, sps, delay = sim.t0, sim.dt, sim.steps_per_sample, sim.sampling.delay
+
+    def time(i) -> Array:
+        return jnp.asarray(t0 + jnp.asarray(i) * dt, dtype=dtype)
+
+    y0 = closed_loop.init(time(0), x0)
+    held0 = pending0 = None
+    if sps:
+        held0 = closed_loop.hold(time(0), y0)
+        if delay:
+            pending0 = held0.command
+            held0 = HeldOutputs(
+                jtu.tree_map(jnp.zeros_like, held0.command),
+                held0.controller_dot,
+                held0.observer_dot,
+            )
+    flags0 = jax.eval_shape(closed_loop.physics_update, time(0), y0)[1]
+    events0 = {
+        name: EventRecord(jnp.zeros((), jnp.int32), jnp.full(EVENT_CAPACITY, jnp.nan, dtype))
+        for name in flags0
+    }
+    status0 = jnp.asarray(closed_loop.status(time(0), y0), jnp.int32)
+    failure0 = jnp.where(status0 != 0, time(0), jnp.inf).astype(dtype)
+    solver_state0 = sim.solver.init(closed_loop, time(0), dt, y0, held0)
+
+    def sample(loop, t, y, held, pending):
+        y = loop.flight_update(t, y)
+        fresh = loop.hold(t, y)
+        if not delay:
+            return y, fresh, pending
+        held = HeldOutputs(pending, fresh.controller_dot, fresh.observer_dot)
+        return y, held, fresh.command
+
+    def one_step(loop, carry, i):
+        y, held, pending, solver_state, status, failure_time, events = carry
+        t = time(i)
+        if sps:
+            y, held, pending = lax.cond(
+                (i % sps == 0) & (i > 0),
+                lambda: sample(loop, t, y, held, pending),
+                lambda: (y, held, pending),
+            )
+        y, solver_state = sim.solver.step(loop, t, dt, y, held, solver_state)
+        t_next = time(i + 1)
+        y, flags = loop.physics_update(t_next, y)
+        if not sps:
+            y = loop.flight_update(t_next, y)
+        events = _record_events(events, flags, t_next)
+        code = jnp.asarray(loop.status(t_next, y), jnp.int32)
+        first = (status == 0) & (code != 0)
+        status = jnp.where(first, code, status)
+        failure_time = jnp.where(first, t_next, failure_time)
+        return y, held, pending, solver_state, status, failure_time, events
+
+    carry0 = (y0, held0, pending0, solver_state0, status0, failure0, events0)
+    if sim.performance.scalarize:
+        # The time loop runs on scalar entries (a struct of arrays under vmap): `._scalarize`.
+        flat0, step, unflatten = scalarized_loop_step(
+            one_step, closed_loop, carry0, sim.performance.limits
+        )
+    else:
+        flat0 = carry0
+
+        def step(carry, i):
+            return one_step(closed_loop, carry, i), None
+
+        def unflatten(carry):
+            return carry
+
+    every = sim.save_every
+
+    def save_interval(flat, j):
+        flat, _ = lax.scan(step, flat, j * every + jnp.arange(every))
+        y, held, pending, *_ = unflatten(flat)
+        i_end = (j + 1) * every
+        t_end = time(i_end)
+        y_signals = y
+        if sps:
+            # Right-continuous outputs: at a sample instant, the outputs of the new sample.
+            y_signals, held, _ = lax.cond(
+                i_end % sps == 0,
+                lambda: sample(closed_loop, t_end, y, held, pending),
+                lambda: (y, held, pending),
+            )
+        return flat, (y, closed_loop.signals(t_end, y_signals, held))
+
+    if sim.checkpoint:
+        save_interval = jax.checkpoint(save_interval)
+
+    n_intervals = sim.n_steps // every
+    flat, (ys, signals) = lax.scan(save_interval, flat0, jnp.arange(n_intervals))
+    *_, status, failure_time, events = unflatten(flat)
+    signals0 = closed_loop.signals(time(0), y0, held0)
+
+    def prepend(first, rest):
+        return jnp.concatenate([first[None], rest], axis=0)
+
+    return Trajectory(
+        ts=time(jnp.arange(n_intervals + 1) * every),
+        states=jtu.tree_map(prepend, y0, ys),
+        signals=jtu.tree_map(prepend, signals0, signals),
+        status=status,
+        failure_time=failure_time,
+        events=events,
+    )
+
+
+integrate_jit = eqx.filter_jit(integrate)
+"""[`integrate`][] compiled with `eqx.filter_jit` (what `simulate` calls)."""

@@ -1,0 +1,136 @@
+r"""`Simulation`: the settings of a fixed-step closed-loop run, validated once.
+
+[`jaxatt.simulate`][], [`jaxatt.montecarlo.monte_carlo`][] and the tuning objectives all build
+one of these from their arguments and hand it to the same time loop, so a tuning objective
+and a Monte Carlo study with the same settings run the same compiled program.
+"""
+
+import math
+import numbers
+
+import diffrax as dfx
+import equinox as eqx
+
+from ._performance import Performance
+from ._sampling import AbstractSampling, Continuous
+from ._solvers import RK4, AbstractFixedStepSolver, as_fixed_step_solver
+
+
+def _check_time(where: str, name: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ValueError(
+            f"{where}: `{name}` must be a Python number (it fixes the number of steps, a "
+            f"static shape), got {type(value).__name__}."
+        )
+    value = float(value)
+    if not math.isfinite(value):
+        raise ValueError(f"{where}: `{name}` must be finite, got {name}={value}.")
+    return value
+
+
+def _check_positive_int(where: str, name: str, value) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
+        raise ValueError(f"{where}: `{name}` must be a positive integer, got {value!r}.")
+    return int(value)
+
+
+class Simulation(eqx.Module):
+    r"""Horizon, step, sampling, solver, saving and performance options of a run (all static).
+
+    **Arguments:**
+    - `t0`, `t1`, `dt`: Python numbers [s]; `t1 - t0` must be a whole multiple of `dt`.
+      They fix the number of steps, so changing them recompiles (changing gains does not).
+    - `sampling`: [`Continuous`][]`()` (controller inside the vector field, the papers'
+      setting) or [`ZeroOrderHold`][]`(period)`.
+    - `solver`: [`RK4`][]`()` (default), [`Euler`][]`()`, or any diffrax solver (used at a
+      fixed step).
+    - `save_every`: save every this many steps (must divide the step count); the first save
+      is at `t0`, the last at `t1`.
+    - `checkpoint`: rematerialize each save interval in reverse-mode autodiff, so gradient
+      memory grows with the number of saves rather than of steps.
+    - `performance`: a [`Performance`][] (how the loop is compiled; never what it computes).
+    - `where`: the name used in error messages (the public function building it).
+    """
+
+    t0: float = eqx.field(static=True)
+    t1: float = eqx.field(static=True)
+    dt: float = eqx.field(static=True)
+    sampling: AbstractSampling
+    solver: AbstractFixedStepSolver
+    save_every: int = eqx.field(static=True)
+    checkpoint: bool = eqx.field(static=True)
+    performance: Performance
+    n_steps: int = eqx.field(static=True)
+    steps_per_sample: int = eqx.field(static=True)
+
+    def __init__(
+        self,
+        t0: float,
+        t1: float,
+        dt: float,
+        *,
+        sampling: AbstractSampling = Continuous(),
+        solver: AbstractFixedStepSolver | dfx.AbstractSolver = RK4(),
+        save_every: int = 1,
+        checkpoint: bool = True,
+        performance: Performance | None = None,
+        where: str = "simulate",
+    ):
+        self.t0 = _check_time(where, "t0", t0)
+        self.t1 = _check_time(where, "t1", t1)
+        self.dt = _check_time(where, "dt", dt)
+        if self.dt <= 0:
+            raise ValueError(f"{where}: `dt` must be positive, got dt={self.dt}.")
+        if self.t1 <= self.t0:
+            raise ValueError(
+                f"{where}: `t1` must be greater than `t0`, got t0={self.t0}, t1={self.t1}."
+            )
+        ratio = (self.t1 - self.t0) / self.dt
+        n_steps = round(ratio)
+        if n_steps < 1 or abs(ratio - n_steps) > 1e-9 * max(1.0, ratio):
+            raise ValueError(
+                f"{where}: `t1 - t0` must be a whole multiple of `dt`, got "
+                f"t0={self.t0}, t1={self.t1}, dt={self.dt} ({ratio:.6g} steps)."
+            )
+        self.n_steps = n_steps
+        self.save_every = _check_positive_int(where, "save_every", save_every)
+        if n_steps % self.save_every:
+            raise ValueError(
+                f"{where}: `save_every` must divide the number of steps ({n_steps}), got "
+                f"save_every={self.save_every}."
+            )
+        if not isinstance(sampling, AbstractSampling):
+            raise ValueError(
+                f"{where}: `sampling` must be Continuous() or ZeroOrderHold(period), got "
+                f"{type(sampling).__name__}."
+            )
+        self.sampling = sampling
+        self.steps_per_sample = sampling.steps_per_sample(self.dt)
+        self.solver = as_fixed_step_solver(solver, where)
+        self.checkpoint = bool(checkpoint)
+        if performance is None:
+            performance = Performance()
+        if not isinstance(performance, Performance):
+            raise ValueError(
+                f"{where}: `performance` must be a jaxatt.simulation.Performance, got "
+                f"{type(performance).__name__}."
+            )
+        self.performance = performance
+
+    def with_performance(self, performance: Performance) -> "Simulation":
+        """The same settings with other performance options."""
+        return Simulation(
+            self.t0,
+            self.t1,
+            self.dt,
+            sampling=self.sampling,
+            solver=self.solver,
+            save_every=self.save_every,
+            checkpoint=self.checkpoint,
+            performance=performance,
+        )
+
+    @property
+    def n_saves(self) -> int:
+        """Number of saved samples, `t0` included."""
+        return self.n_steps // self.save_every + 1
