@@ -1,38 +1,14 @@
-"""Test configuration: float64 first (before any array exists), strict promotion, a key fixture."""
+"""Test configuration: float64 first (before any array exists), strict promotion, a key fixture.
+
+The suite compiles exactly what users run: no compiler flag is set here (CI sets none either;
+see .ci/run).
+"""
 
 import os
 
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 os.environ.setdefault("JAXATT_SHORT", "1")
-
-# XLA:CPU code generation. Most of the suite's time is compilation, and on jaxlib 0.10 the
-# LLVM IR emitters this flag selects compile in 0.7-0.85x the time of the default MLIR fusion
-# emitters (benchmarks/README.md; the suite: 453 s against 659 s). Same HLO, same results to
-# rounding: tests/test_xla_codegen.py computes a closed loop, a scalarized batch and
-# reverse-mode gradients under both and compares. The suite selects them unless XLA_FLAGS
-# already says which, or JAXATT_TEST_XLA_DEFAULTS=1 asks for XLA's defaults. Set here, before
-# XLA starts; xdist workers, notebook kernels and subprocesses inherit it.
-LEGACY_EMITTERS = "--xla_cpu_use_fusion_emitters=false"
-
-
-def _select_legacy_emitters() -> None:
-    flags = os.environ.get("XLA_FLAGS", "")
-    if os.environ.get("JAXATT_TEST_XLA_DEFAULTS") == "1" or "xla_cpu_use_fusion_emitters" in flags:
-        return
-    # XLA aborts the process on a flag it does not know: try it in a child first (once, in the
-    # process that starts the xdist workers).
-    import subprocess
-    import sys
-
-    env = dict(os.environ, XLA_FLAGS=f"{flags} {LEGACY_EMITTERS}".strip())
-    probe = [sys.executable, "-c", "import jax; jax.devices()"]
-    if subprocess.run(probe, env=env, capture_output=True).returncode == 0:
-        os.environ["XLA_FLAGS"] = env["XLA_FLAGS"]
-
-
-if "PYTEST_XDIST_WORKER" not in os.environ:
-    _select_legacy_emitters()
 
 import jax  # noqa: E402
 

@@ -1,7 +1,9 @@
-"""The suite compiles with XLA:CPU's LLVM IR emitters (tests/conftest.py); users get XLA's
-defaults (the MLIR fusion emitters). Chen's M1 closed loop (sliding, saturated, |s|^a), a
-scalarized vmapped batch of it and reverse-mode gradients of its loss terms, computed here
-and in a child process with the other code generator, must agree.
+"""XLA:CPU has two code generators: the default MLIR fusion emitters and the LLVM IR emitters
+(`--xla_cpu_use_fusion_emitters=false`), which compile jaxatt's closed loops 15-22 % faster
+(benchmarks/README.md) and which a user may select for compile-bound work. Chen's M1 closed
+loop (sliding, saturated, |s|^a), a scalarized vmapped batch of it and reverse-mode gradients
+of its loss terms, computed here and in a child process with the other code generator, must
+agree.
 
 Both compile the same HLO; only the machine code differs (instruction order, vectorization,
 the inlined math functions). Measured on jaxlib 0.10.2 they agreed to 4e-16 relative; 1e-12
@@ -30,6 +32,7 @@ import jax.numpy as jnp
 jax.config.update("jax_enable_x64", True)
 from jaxatt import simulate
 from jaxatt.metrics import settling_time, soft_settling_time
+from jaxatt.simulation import Performance
 from jaxatt.numerics import safe_norm, sig_pow
 from jaxatt.scenarios import chen2022_tuning, chen2022_two_phase_power as chen
 
@@ -40,7 +43,9 @@ def results():
     s, u = traj.signals["s"], traj.signals["u"]
     batch = chen2022_tuning.initial_states(jax.random.key(3), 3)
     omega_1s = eqx.filter_jit(jax.vmap(
-        lambda x: simulate(loop, x, 0.0, 1.0, dt=5e-3, scalarize=True).states.plant.omega[-1]
+        lambda x: simulate(
+            loop, x, 0.0, 1.0, dt=5e-3, performance=Performance(scalarize=True)
+        ).states.plant.omega[-1]
     ))(batch)
     # Reverse mode through the pieces of a tuning loss: the soft settling time of the run,
     # and the two-phase power reaching law (|s|^alpha and |s|^beta) at the run's s.
@@ -84,8 +89,7 @@ def _in_a_child(flags: str) -> dict:
         timeout=600,
     )
     if done.returncode != 0 and f"Unknown flag in XLA_FLAGS: --{FLAG}" in done.stderr:
-        # A jaxlib without the LLVM IR emitters: conftest found the same and the suite runs
-        # with XLA's defaults, so there is no second code generator to compare.
+        # A jaxlib without the LLVM IR emitters: there is no second code generator to compare.
         pytest.skip(f"this jaxlib does not know --{FLAG}")
     assert done.returncode == 0, done.stderr[-3000:]
     return json.loads(done.stdout.strip().splitlines()[-1])

@@ -11,6 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+import jaxatt.simulation._simulate as simulate_module
 from jaxatt.controllers import (
     FiniteTimeMRP,
     ObserverCompensated,
@@ -29,7 +30,7 @@ from jaxatt.rotations import (
     mrp_to_dcm,
     quat_from_axis_angle,
 )
-from jaxatt.simulation import RESULTS, ClosedLoop, ClosedLoopState, simulate
+from jaxatt.simulation import ClosedLoop, ClosedLoopState, Status, simulate
 
 
 J = jnp.diag(jnp.array([0.01175, 0.01175, 0.02229]))  # Yu 2022, Table 1
@@ -98,28 +99,45 @@ def test_paper_initial_rate_is_inadmissible_with_the_numbers_in_the_message():
     x0 = MRPState(PAPER_SIGMA0, PAPER_OMEGA0)
     reference, _ = ConstantAttitude()(0.0, None)
     with pytest.raises(ValueError, match=r"chi\(v\(0\)\) = 0\.2597.*0\.21715.*allow_inadmissible"):
-        law.init(0.0, x0, reference)
+        law.check_initial(0.0, x0, reference)
     # |v_i| < M on every axis is not enough (the theorem's printed hypothesis):
     with pytest.raises(ValueError, match="outside the admissible set"):
-        law.init(0.0, MRPState(jnp.zeros(3), jnp.full(3, 0.39)), reference)
-    assert not bool(law.admissible(x0, reference))
+        law.check_initial(0.0, MRPState(jnp.zeros(3), jnp.full(3, 0.39)), reference)
+    assert not bool(law.inside_barrier(x0, reference))
+    _ftac(allow_inadmissible=True).check_initial(0.0, x0, reference)  # the opt-out: no error
     state = _ftac(allow_inadmissible=True).init(0.0, x0, reference)
     assert float(state.time_inside) == 0.0
     inside = MRPState(PAPER_SIGMA0, 0.85 * PAPER_OMEGA0)
-    assert bool(law.admissible(inside, reference))
-    law.init(0.0, inside, reference)  # no error
+    assert bool(law.inside_barrier(inside, reference))
+    law.check_initial(0.0, inside, reference)  # no error
 
 
-def test_traced_init_never_raises_and_flags_violation():
+def test_an_inadmissible_start_through_simulate_raises_before_anything_runs(monkeypatch):
+    # Regression: `init` only raised on concrete values, and inside `simulate` it is traced, so
+    # the paper's state ran the whole horizon and failed afterwards with a generic message.
+    def must_not_run(*args, **kwargs):
+        raise AssertionError("simulate compiled or ran the loop before refusing the start")
+
+    monkeypatch.setattr(simulate_module, "integrate_jit", must_not_run)
+    loop = ClosedLoop(_plant(), _ftac())
+    with pytest.raises(ValueError) as info:
+        simulate(loop, MRPState(PAPER_SIGMA0, PAPER_OMEGA0), 0.0, 1.0, dt=1e-3)
+    message = str(info.value)
+    for needle in ("chi(v(0)) = 0.2597", "M^(1+alpha2) = 0.21715", "barrier ratio 1.196",
+                   "allow_inadmissible=True"):
+        assert needle in message, needle
+
+
+def test_traced_init_never_raises_and_admissibility_is_per_sample():
     law = _ftac()
     reference, _ = ConstantAttitude()(0.0, None)
     x0s = MRPState(jnp.stack([PAPER_SIGMA0] * 2), jnp.stack([PAPER_OMEGA0, 0.5 * PAPER_OMEGA0]))
     states = eqx.filter_vmap(lambda x: law.init(0.0, x, reference))(x0s)
     assert states.time_inside.shape == (2,)
-    flags = eqx.filter_vmap(
-        lambda x, s: law.diagnostics(0.0, x, reference, s)["violation"], in_axes=(0, 0)
+    admissible = eqx.filter_vmap(
+        lambda x, s: law.admissible(0.0, x, reference, s), in_axes=(0, 0)
     )(x0s, states)
-    np.testing.assert_array_equal(flags, [True, False])
+    np.testing.assert_array_equal(admissible, [False, True])
 
 
 def test_barrier_guard_keeps_everything_finite_on_and_across_the_boundary():
@@ -159,10 +177,8 @@ def test_simulate_reports_inadmissible_starts_and_later_crossings():
     loop = ClosedLoop(_plant(Constant(jnp.zeros(3))), _ftac())
     x0s = MRPState(jnp.stack([PAPER_SIGMA0] * 2), jnp.stack([PAPER_OMEGA0, 0.85 * PAPER_OMEGA0]))
     trajs = jax.vmap(lambda x: simulate(loop, x, 0.0, 0.4, dt=1e-3, throw=False))(x0s)
-    assert trajs.result._value.tolist() == [
-        RESULTS.constraint_violated._value,
-        RESULTS.successful._value,
-    ]
+    assert trajs.status.tolist() == [Status.constraint_violated, Status.successful]
+    assert trajs.failure_time.tolist() == [0.0, np.inf]  # detected at t0
 
     def opt_out(guard, disturbance):
         law = _ftac(guard=guard, allow_inadmissible=True)
@@ -179,10 +195,11 @@ def test_simulate_reports_inadmissible_starts_and_later_crossings():
     trajs = jax.vmap(lambda lp, x: simulate(lp, x, 0.0, 0.4, dt=1e-3, throw=False))(loops, x0s)
     ratio = np.asarray(trajs.signals["barrier_ratio"][0])
     assert ratio[0] > 1.19 and np.all(ratio[ratio.size // 10 :] < 1)  # enters within 0.04 s
-    assert int(trajs.result._value[0]) == RESULTS.successful._value
-    assert not np.any(trajs.signals["violation"][0])
+    assert int(trajs.status[0]) == Status.successful
     assert np.max(np.abs(trajs.plant_states.omega[1, :, 0])) > 0.4
-    assert int(trajs.result._value[1]) == RESULTS.constraint_violated._value
+    assert int(trajs.status[1]) == Status.constraint_violated
+    # The crossing is reported when it happens (between 0 and 0.4 s), not at the start.
+    assert 0.0 < float(trajs.failure_time[1]) < 0.4
 
 
 # --- tracking form (eqs. 36-38) ----------------------------------------------------------------
@@ -193,8 +210,9 @@ def _tracking_loop(law, plant, observer=None):
         quat_from_axis_angle(jnp.array([0.0, 0.6, 0.8]), 0.4),
         Sinusoid(jnp.array([0.1, -0.08, 0.06]), jnp.array([0.5, 0.7, 0.9]), jnp.array([0.0, 1, 2])),
     )
-    controller = law if observer is None else ObserverCompensated(law, observer)
-    return ClosedLoop(plant, controller, reference)
+    if observer is None:
+        return ClosedLoop(plant, law, reference)
+    return ClosedLoop(plant, ObserverCompensated(law), reference, observer=observer)
 
 
 @eqx.filter_jit

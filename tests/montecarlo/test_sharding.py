@@ -38,7 +38,7 @@ SCRIPT = textwrap.dedent(
     n = 6
     sigma = jax.vmap(mrp_from_quat)(mc.attitudes_within(jr.key(0), n, 1.0))
     omega = mc.rates_in_ball(jr.key(1), n, 0.05)
-    omega = omega.at[4, 0].set(jnp.nan)  # one failing sample, on the second device
+    omega = omega.at[4].set(1e150)  # one diverging sample, on the second device
     x0s = MRPState(sigma, omega)
     inertias = mc.inertia_dispersion(
         jr.key(2), n, J0, principal_scale=0.1, max_misalignment=0.1

@@ -84,6 +84,56 @@ def test_quaternion_and_mrp_plants_agree(torque_free_runs):
     np.testing.assert_allclose(mrp.plant_states.omega, quat.plant_states.omega, atol=1e-9)
 
 
+def test_shadow_switches_are_counted_and_timed(torque_free_runs):
+    """Each time the attitude passes 180 deg from the identity (q0 of the quaternion run
+    changes sign), the MRP run switches to the shadow set once, after the completed step that
+    left the unit ball: the event count equals the number of sign changes of q0, and each
+    recorded time falls in the saved interval where q0 changed sign (for cross-checks against
+    tools that count switches, e.g. Basilisk's MRPSwitchCount)."""
+    quat, mrp = torque_free_runs
+    q0 = np.asarray(quat.plant_states.q[:, 0])
+    ts = np.asarray(quat.ts)
+    changes = np.flatnonzero(np.sign(q0[1:]) != np.sign(q0[:-1]))
+    record = mrp.events["shadow_switch"]
+    count = int(record.count)
+    assert count == changes.size and count > 5  # a tumbling body switches often
+    times = np.asarray(record.times)
+    kept = min(count, jaxatt.simulation.EVENT_CAPACITY)
+    for k, i in enumerate(changes[:kept]):
+        assert ts[i] < times[k] <= ts[i + 1], (k, times[k], ts[i], ts[i + 1])
+    assert np.all(np.isnan(times[kept:]))
+    # Without switching there are no events to report (and no event record).
+    assert quat.events == {}
+
+
+def test_an_indefinite_time_varying_inertia_fails_the_run():
+    # Regression: J0 + dJ(t) was never checked, so an inertia that stopped being positive
+    # definite ran to |omega| = 1e10 rad/s and was reported successful.
+    swing = Sinusoid(jnp.diag(jnp.array([30.0, 0.0, 0.0])), jnp.diag(jnp.array([1.0, 0.0, 0.0])))
+    plant = RigidBodyMRP(J_ASYM, inertia_perturbation=swing, shadow_switching=False)
+    assert plant.body.certified_positive_definite() is False  # 30 > lambda_min(J0)
+    loop = ClosedLoop(plant, OpenLoop(Constant(jnp.zeros(3))))
+    x0 = MRPState(jnp.zeros(3), OMEGA0)
+    traj = jaxatt.simulate(loop, x0, 0.0, 8.0, dt=0.01, throw=False)
+    assert traj.status == jaxatt.Status.invalid_plant
+    # The first completed step at which J(t) has a non-positive leading minor (by NumPy).
+    grid = np.arange(1, 801) * 0.01
+    bad = [
+        t for t in grid
+        if np.linalg.eigvalsh(np.asarray(J_ASYM) + np.diag([30 * np.sin(t), 0, 0]))[0] <= 0
+    ]
+    assert float(traj.failure_time) == pytest.approx(bad[0])
+    with pytest.raises(jaxatt.SimulationFailed, match="invalid_plant"):
+        jaxatt.simulate(loop, x0, 0.0, 8.0, dt=0.01)
+    # Up front: an inertia that is not positive definite at t = 0 is refused when built.
+    with pytest.raises(ValueError, match=r"J0 \+ dJ\(t\) must be positive definite"):
+        RigidBody(J_ASYM, inertia_perturbation=Constant(jnp.diag(jnp.array([-11.0, 0, 0]))))
+    # Chen 2022's |dJ| <= 3 < lambda_min(J0) = 14.3 is certified for every t.
+    chen = Sinusoid(jnp.diag(jnp.array([1.0, 2.0, 3.0])), jnp.diag(jnp.array([0.1, 0.2, 0.3])))
+    j0 = jnp.array([[20.0, 1.2, 0.9], [1.2, 17.0, 1.4], [0.9, 1.4, 15.0]])
+    assert RigidBody(j0, chen).certified_positive_definite() is True
+
+
 def test_renormalize_option_keeps_unit_norm():
     plant = RigidBodyQuaternion(J_ASYM, renormalize=True)
     traj = jaxatt.simulate(

@@ -16,8 +16,11 @@ from jaxatt.numerics import sig_pow, solve3
 from jaxatt.plants import MRPState
 from jaxatt.rotations import mrp_kinematics, mrp_to_dcm, quat_from_axis_angle, quat_multiply
 from jaxatt.scenarios import chen2022_two_phase_power as chen
-from jaxatt.simulation import Euler, ZeroOrderHold, simulate
-from jaxatt.simulation._scalarize import MAX_SIZE, pack, scalarize, split, split_tree
+from jaxatt.simulation import Euler, Performance, ZeroOrderHold, simulate
+from jaxatt.simulation._scalarize import DEFAULT_LIMITS, Limits, pack, scalarize, split, split_tree
+
+
+FAST = Performance(scalarize=True)
 
 
 def _is_object_array(x):
@@ -94,7 +97,7 @@ def test_custom_derivative_rules_survive():
 
 
 def test_large_arrays_stay_whole():
-    big = jnp.arange(MAX_SIZE + 1.0)
+    big = jnp.arange(DEFAULT_LIMITS.max_size + 1.0)
     assert not _is_object_array(split(big))
     small = split(jnp.arange(3.0))
     assert _is_object_array(small) and small.shape == (3,)
@@ -111,14 +114,13 @@ def m1():
 def pd_mrp():
     from jaxatt.scenarios import rigid_body_pd
 
-    loop, x0 = rigid_body_pd.build()
-    return loop, x0
+    return rigid_body_pd.build(), rigid_body_pd.initial_state()
 
 
 def test_simulate_scalarized_equals_simulate(m1):
     x0 = chen.initial_state("D2")
     plain = simulate(m1, x0, 0.0, 0.5, dt=1e-3, save_every=50)
-    fast = simulate(m1, x0, 0.0, 0.5, dt=1e-3, save_every=50, scalarize=True)
+    fast = simulate(m1, x0, 0.0, 0.5, dt=1e-3, save_every=50, performance=FAST)
     assert_trees_close(fast.states, plain.states, rtol=1e-12, atol=1e-14)
     assert_trees_close(fast.signals, plain.signals, rtol=1e-11, atol=1e-12)
 
@@ -132,7 +134,7 @@ def test_scalarized_sampling_and_solvers(pd_mrp, options):
     loop, x0 = pd_mrp
     kwargs = dict(dt=1e-3, save_every=50, **options)
     plain = simulate(loop, x0, 0.0, 0.2, **kwargs)
-    fast = simulate(loop, x0, 0.0, 0.2, scalarize=True, **kwargs)
+    fast = simulate(loop, x0, 0.0, 0.2, performance=FAST, **kwargs)
     assert_trees_close(fast.states, plain.states, rtol=1e-12, atol=1e-14)
 
 
@@ -141,12 +143,12 @@ def test_scalarized_mrp_shadow_switching_and_float32(pd_mrp):
     x0 = MRPState(jnp.array([0.0, 0.0, 0.98]), jnp.array([0.0, 0.0, 0.5]))  # switches early
     euler = dict(dt=1e-3, save_every=100, solver=Euler())  # a small program: fast to compile
     plain = simulate(loop, x0, 0.0, 1.0, **euler)
-    fast = simulate(loop, x0, 0.0, 1.0, scalarize=True, **euler)
+    fast = simulate(loop, x0, 0.0, 1.0, performance=FAST, **euler)
     assert np.any(np.diff(np.sign(np.asarray(plain.states.plant.sigma[:, 2]))) != 0)
     assert_trees_close(fast.states, plain.states, rtol=1e-12, atol=1e-14)
     loop32 = jtu.tree_map(lambda x: x.astype(jnp.float32) if eqx.is_inexact_array(x) else x, loop)
     x32 = jtu.tree_map(lambda x: x.astype(jnp.float32), x0)
-    fast32 = simulate(loop32, x32, 0.0, 1.0, scalarize=True, **euler)
+    fast32 = simulate(loop32, x32, 0.0, 1.0, performance=FAST, **euler)
     assert fast32.states.plant.sigma.dtype == jnp.float32
     np.testing.assert_allclose(fast32.states.plant.sigma, plain.states.plant.sigma, atol=1e-5)
 
@@ -167,7 +169,7 @@ def test_scalarized_gradients_match_finite_differences(pd_mrp):
         )
         x = MRPState(x0.sigma.at[0].set(s0), x0.omega)
         traj = simulate(
-            loop_, x, 0.0, 0.2, dt=1e-3, save_every=20, solver=Euler(), scalarize=True
+            loop_, x, 0.0, 0.2, dt=1e-3, save_every=20, solver=Euler(), performance=FAST
         )
         return jnp.sum(traj.signals["attitude_error"] ** 2) + jnp.sum(traj.signals["u"])
 
@@ -192,7 +194,15 @@ def test_vmapped_scalarized_simulation_lowers_to_elementwise_code(m1):
         def run(params, x0):
             loop = eqx.combine(params, static)
             return jax.vmap(
-                lambda x: simulate(loop, x, 0.0, 0.01, dt=1e-3, save_every=10, scalarize=scalarize)
+                lambda x: simulate(
+                    loop,
+                    x,
+                    0.0,
+                    0.01,
+                    dt=1e-3,
+                    save_every=10,
+                    performance=Performance(scalarize=scalarize),
+                )
             )(x0)
 
         hlo = run.lower(params, x0).compile().as_text()
@@ -205,3 +215,28 @@ def test_vmapped_scalarized_simulation_lowers_to_elementwise_code(m1):
     assert " dot(" in step_loop_hlo(False)  # what the test guards against
     fast = step_loop_hlo(True)
     assert " dot(" not in fast and " transpose(" not in fast
+
+
+def test_large_matrix_products_stay_packed():
+    # A graph Laplacian or a modal matrix must not become an O(n^3) scalar program: products
+    # needing more multiplications than `max_products` are evaluated as one packed dot.
+    laplacian = jnp.array(np.diag([2.0] * 6) - np.eye(6, k=1) - np.eye(6, k=-1))
+    x = jnp.arange(6.0)
+
+    def count(limits):
+        def scalarized(v):
+            return pack(scalarize(lambda w: laplacian @ w, limits)(split(v)), v.dtype)
+
+        jaxpr = jax.make_jaxpr(scalarized)(x)
+        names = [e.primitive.name for e in jaxpr.jaxpr.eqns]
+        return names.count("dot_general"), names.count("mul")
+
+    unrolled_dots, unrolled_muls = count(Limits(max_products=64))  # 36 products: unrolled
+    packed_dots, packed_muls = count(Limits(max_products=16))
+    assert unrolled_dots == 0 and unrolled_muls == 36
+    assert packed_dots == 1 and packed_muls == 0
+    for limits in (Limits(max_products=64), Limits(max_products=16)):
+        out = pack(scalarize(lambda w: laplacian @ w, limits)(split(x)), x.dtype)
+        np.testing.assert_allclose(out, laplacian @ x, rtol=1e-15)
+    with pytest.raises(ValueError, match="`max_unrolled_products` must be a positive integer"):
+        Performance(max_unrolled_products=0)

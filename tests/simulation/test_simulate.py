@@ -148,8 +148,8 @@ class _TraceCounting(AbstractController):
         self.counter.append(1)
         return self.inner(t, measurement, reference, state)
 
-    def diagnostics(self, t, measurement, reference, state):
-        return self.inner.diagnostics(t, measurement, reference, state)
+    def signals(self, t, measurement, reference, state):
+        return self.inner.signals(t, measurement, reference, state)
 
 
 def test_changing_gain_values_does_not_recompile():
@@ -259,8 +259,11 @@ def test_nonfinite_state_is_reported_not_silent():
     # A stiff rate gain with a step far beyond RK4's stability limit: the state blows up.
     loop = ClosedLoop(RigidBodyMRP(jnp.asarray(J0)), MRPPD(1.0, 1e5))
     traj = jaxatt.simulate(loop, mrp_x0(), 0.0, 20.0, dt=0.1, throw=False)
-    assert traj.result == jaxatt.RESULTS.nonfinite_state
-    with pytest.raises(Exception, match="NaN or infinite"):
+    assert traj.status == jaxatt.Status.nonfinite_state
+    # The failure is timed: the first completed step whose state is not finite.
+    first_bad = np.flatnonzero(~np.all(np.isfinite(np.asarray(traj.plant_states.omega)), axis=1))
+    assert float(traj.failure_time) == pytest.approx(float(traj.ts[first_bad[0]]))
+    with pytest.raises(jaxatt.SimulationFailed, match="nonfinite_state at t = .* NaN or infinite"):
         jaxatt.simulate(loop, mrp_x0(), 0.0, 20.0, dt=0.1)
 
 
@@ -284,6 +287,16 @@ def test_nonfinite_state_is_reported_not_silent():
             "`x0.omega` must have shape (3,)",
         ),
         (dict(x0=QuaternionState(jnp.array([1.0, 0, 0, 0]), jnp.zeros(3))), "must be an MRPState"),
+        # Regression: a NaN initial state ran the whole horizon and was then reported as
+        # "the loop diverged or dt is too large".
+        (
+            dict(x0=eqx.tree_at(lambda s: s.omega, mrp_x0(), jnp.array([0.0, jnp.nan, 0.0]))),
+            "`x0.omega` must be finite",
+        ),
+        (
+            dict(x0=eqx.tree_at(lambda s: s.sigma, mrp_x0(), jnp.array([jnp.inf, 0.0, 0.0]))),
+            "`x0.sigma` must be finite",
+        ),
     ],
 )
 def test_bad_simulation_arguments_raise(kwargs, needle):
@@ -297,10 +310,10 @@ def test_bad_simulation_arguments_raise(kwargs, needle):
 
 def test_array_time_arguments_are_rejected_with_a_reason():
     # The annotation says `float`; without runtime type checking the check below catches it.
-    from jaxatt.simulation._simulate import _check_time
+    from jaxatt.simulation._settings import _check_time
 
-    with pytest.raises(ValueError, match="`dt` must be a Python number"):
-        _check_time("dt", jnp.array(0.1))
+    with pytest.raises(ValueError, match="simulate: `dt` must be a Python number"):
+        _check_time("simulate", "dt", jnp.array(0.1))
 
 
 def test_non_unit_initial_quaternion_raises():
@@ -330,10 +343,25 @@ def test_non_unit_initial_quaternion_raises():
             "QuaternionPD: `kd` must be positive",
         ),
         (lambda: Saturation(0.0), "Saturation: `limit` must be positive"),
+        # Regression: a gain of the wrong shape was accepted and failed deep inside the trace
+        # with a broadcasting error that named nothing.
+        (
+            lambda: MRPPD(jnp.ones(2), 1.0),
+            "MRPPD: `k1` must be a scalar or shape (3,), got shape (2,)",
+        ),
+        (lambda: QuaternionPD(1.0, jnp.ones((3, 3))), "`kd` must be a scalar or shape (3,)"),
+        (
+            lambda: jaxatt.sliding.LinearSurface(jnp.ones(4)),
+            "LinearSurface: `slope` must be a scalar or shape (3,)",
+        ),
+        (
+            lambda: jaxatt.controllers.NormRobustTerm(jnp.ones(3), 0.01),
+            "NormRobustTerm: `sigma` must be a scalar",
+        ),
         (lambda: ZeroOrderHold(0.0), "`period` must be positive"),
         (
             lambda: ClosedLoop(mrp_pd_loop().plant, QuaternionPD(1.0, 1.0)),
-            "needs a plant whose state is a QuaternionState",
+            "QuaternionPD reads QuaternionState measurements, but the plant measures MRPState",
         ),
     ],
 )
@@ -380,18 +408,24 @@ class _FlagsLargeRates(AbstractController):
     def __call__(self, t, measurement, reference, state):
         return self.inner(t, measurement, reference, state)
 
-    def diagnostics(self, t, measurement, reference, state):
-        return {"violation": jnp.any(jnp.abs(measurement.omega) >= 0.05)}
+    def admissible(self, t, measurement, reference, state):
+        return ~jnp.any(jnp.abs(measurement.omega) >= 0.05)
 
 
-def test_controller_violation_flag_sets_the_result():
+def test_controller_admissibility_sets_the_status_at_the_first_bad_step():
     plant = mrp_pd_loop().plant
     fast = ClosedLoop(plant, _FlagsLargeRates(MRPPD(17.0, 15.0)))
     traj = jaxatt.simulate(fast, mrp_x0(), 0.0, 2.0, dt=0.01, throw=False)
-    assert traj.result == jaxatt.RESULTS.constraint_violated
-    assert bool(jnp.any(traj.signals["violation"]))
-    with pytest.raises(Exception, match="admissible set"):
+    assert traj.status == jaxatt.Status.constraint_violated
+    # Checked after every step (not only at the saves): the failure time is the first step at
+    # which some |omega_i| >= 0.05.
+    fine = jaxatt.simulate(fast, mrp_x0(), 0.0, 2.0, dt=0.01, throw=False, save_every=1)
+    omega = np.asarray(fine.plant_states.omega)
+    first = np.flatnonzero(np.any(np.abs(omega) >= 0.05, axis=1))[0]
+    assert float(traj.failure_time) == pytest.approx(float(fine.ts[first]))
+    with pytest.raises(jaxatt.SimulationFailed, match="admissible"):
         jaxatt.simulate(fast, mrp_x0(), 0.0, 2.0, dt=0.01)
     slow = ClosedLoop(plant, _FlagsLargeRates(MRPPD(0.01, 15.0)))
     traj = jaxatt.simulate(slow, mrp_x0(), 0.0, 2.0, dt=0.01, throw=False)
-    assert traj.result == jaxatt.RESULTS.successful
+    assert traj.status == jaxatt.Status.successful
+    assert float(traj.failure_time) == np.inf

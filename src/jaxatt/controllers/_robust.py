@@ -7,7 +7,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import Vec3
-from .._validation import check_positive
+from .._validation import check_gain_shape, check_positive
 from ..numerics import safe_norm
 
 
@@ -35,8 +35,9 @@ class NormRobustTerm(AbstractRobustTerm):
     eps: Float[Array, ""]
 
     def __init__(self, sigma: ArrayLike, eps: ArrayLike):
-        self.sigma = check_positive("NormRobustTerm", "sigma", sigma)
-        self.eps = check_positive("NormRobustTerm", "eps", eps)
+        where = "NormRobustTerm"
+        self.sigma = check_gain_shape(where, "sigma", check_positive(where, "sigma", sigma), ((),))
+        self.eps = check_gain_shape(where, "eps", check_positive(where, "eps", eps), ((),))
 
     def __call__(self, s: Vec3) -> Vec3:
         return self.sigma**2 * s / (self.sigma * safe_norm(s) + self.eps)
@@ -53,8 +54,9 @@ class AxisRobustTerm(AbstractRobustTerm):
     eps: Float[Array, "*k"]
 
     def __init__(self, sigma: ArrayLike, eps: ArrayLike):
-        self.sigma = check_positive("AxisRobustTerm", "sigma", sigma)
-        self.eps = check_positive("AxisRobustTerm", "eps", eps)
+        where = "AxisRobustTerm"
+        self.sigma = check_gain_shape(where, "sigma", check_positive(where, "sigma", sigma))
+        self.eps = check_gain_shape(where, "eps", check_positive(where, "eps", eps))
 
     def __call__(self, s: Vec3) -> Vec3:
         return self.sigma**2 * s / (self.sigma * jnp.abs(s) + self.eps)

@@ -10,6 +10,7 @@ axis) and `grad`. Samples need not be uniformly spaced; integrals use the trapez
   [`itae`][], [`iae`][].
 - Transient: [`overshoot`][].
 - Control: [`control_effort`][], [`chattering`][], [`peak`][], [`peak_per_axis`][].
+- Filtering: [`moving_average`][].
 - Constraints: [`constraint_margin`][], [`constraint_violated`][], [`max_abs`][].
 
 **Metric objects** ([`SettlingTime`][], [`ConvergenceTime`][], [`TimeOutside`][], [`Peak`][],
@@ -18,6 +19,7 @@ axis) and `grad`. Samples need not be uniformly spaced; integrals use the trapez
 objectives take them, and a failed sample reports their `failure_value` (`inf` for times).
 """
 
+from ._averages import moving_average as moving_average
 from ._chattering import chattering as chattering
 from ._constraints import (
     constraint_margin as constraint_margin,

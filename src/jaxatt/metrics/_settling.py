@@ -109,8 +109,8 @@ def settled(
 
 @jax.jit
 def _soft_settling_time(ts: Array, x: Array, tol: Array, width: Array) -> Array:
-    dtype = jnp.result_type(ts, x, tol, width)
-    x = x.astype(dtype)
+    dtype = jnp.result_type(ts, x)  # thresholds follow the signal's precision
+    x, tol, width = x.astype(dtype), tol.astype(dtype), width.astype(dtype)
     positive = x > jnp.finfo(dtype).tiny
     log_x = jnp.log(jnp.where(positive, x, 1.0))
     # Tiny or zero samples count as inside the band; a NaN sample stays NaN (never "inside").

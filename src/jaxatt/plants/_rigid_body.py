@@ -155,7 +155,7 @@ def _check_initial_inertia(body: RigidBody) -> None:
         )
 
 
-def _check_rate(where: str, name: str, omega, batch_shape: tuple[int, ...]) -> Vec3:
+def _check_rate(where: str, name: str, omega, batch_shape: tuple[int, ...]) -> Array:
     return check_batched_shape(where, f"{name}.omega", omega, (3,), batch_shape)
 
 

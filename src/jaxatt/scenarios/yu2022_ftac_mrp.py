@@ -69,7 +69,7 @@ from ..controllers import (
     RateConstrainedFiniteTimeMRP,
     homogeneous_exponent,
 )
-from ..metrics import max_abs, peak, settling_time
+from ..metrics import max_abs, moving_average, peak, settling_time
 from ..montecarlo import barrier_states, run_batch
 from ..numerics import safe_norm
 from ..observers import SuperTwistingObserver
@@ -102,6 +102,8 @@ SETTLE_TOLERANCE = 1e-3
 EXTRA_TOLERANCES = (1e-2, 1e-4)
 OBSERVER_TOLERANCE = 2e-4
 """Observer convergence tolerance [N m] at dt = 1e-4 s (the chattering floor is 1.4e-4)."""
+OBSERVER_AVERAGING = 0.1
+"""Window [s] of the moving average that separates the estimate's bias from its chatter."""
 MC_SAMPLES = 500
 MC_HORIZON = 5.0
 MC_DT = 2e-3
@@ -259,9 +261,14 @@ def trajectory_metrics(traj: Trajectory) -> dict[str, jax.Array]:
     for tol in EXTRA_TOLERANCES:
         out[f"sigma_settle_time_{tol:g}"] = settling_time(ts, sigma_norm, tol)
     if "d_hat" in traj.signals:
-        error = jnp.max(jnp.abs(traj.signals["d_hat"] - traj.signals["disturbance"]), axis=1)
+        difference = traj.signals["d_hat"] - traj.signals["disturbance"]
+        error = jnp.max(jnp.abs(difference), axis=1)
         out["observer_error_after_5s"] = jnp.max(jnp.where(ts >= 5.0, error, 0.0))
         out["observer_convergence_time"] = settling_time(ts, error, OBSERVER_TOLERANCE)
+        # The estimate chatters with an amplitude ~ rho2 dt; averaged over 0.1 s the chatter
+        # cancels and what remains is the estimate's bias (|d| itself for a stuck estimate).
+        bias = jnp.max(jnp.abs(moving_average(ts, difference, OBSERVER_AVERAGING)), axis=1)
+        out["observer_bias_after_5s"] = jnp.max(jnp.where(ts >= 5.0, bias, 0.0))
     return out
 
 
@@ -361,7 +368,9 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
     1e-2 and 1e-4, `peak_torque` [N m] (with the crossing spike; `peak_torque_after_0.1s`
     without), `constraint_violated` (some saved $|\\omega_i| \\ge M$),
     `admissible_initial_state`, barrier ratios, `observer_error_after_5s` [N m],
-    `observer_convergence_time` (to 2e-4 N m), `result`; then `claims` (the paper's claims
+    `observer_convergence_time` (to 2e-4 N m), `observer_bias_after_5s` (the largest
+    0.1 s moving average of $|\\hat d_i - d_i|$ after 5 s, N m: the estimate's bias without
+    its chatter), `result`; then `claims` (the paper's claims
     evaluated on these numbers) and `monte_carlo` (FTAC vs FT from 500 random admissible
     states: violation counts and the largest rate). `short=True` (CI): dt = 2e-3 s and no
     Monte Carlo (`monte_carlo` is null, no Fig. 5); `progress=True` shows a progress bar.

@@ -19,8 +19,8 @@ class EventRecord(eqx.Module):
       entries are NaN.
     """
 
-    count: Int[Array, ""]
-    times: Float[Array, " capacity"]
+    count: Int[Array, "*batch"]
+    times: Float[Array, "*batch capacity"]
 
 
 class Trajectory(eqx.Module):
@@ -41,11 +41,11 @@ class Trajectory(eqx.Module):
     With `simulate(..., throw=True)` (the default) a failure raises instead.
     """
 
-    ts: Float[Array, " T"]
+    ts: Float[Array, "*batch T"]
     states: PyTree[Array]
     signals: dict[str, Array]
-    status: Int[Array, ""]
-    failure_time: Float[Array, ""]
+    status: Int[Array, "*batch"]
+    failure_time: Float[Array, "*batch"]
     events: dict[str, EventRecord]
 
     @property
@@ -69,12 +69,12 @@ class Trajectory(eqx.Module):
         return self.states.actuator
 
     @property
-    def controls(self) -> Float[Array, "T m"]:
+    def controls(self) -> Float[Array, "..."]:
         """The applied control (after the actuator model)."""
         return self.signals["u"]
 
     @property
-    def successful(self) -> Bool[Array, ""]:
+    def successful(self) -> Bool[Array, "*batch"]:
         """Boolean array: `status == Status.successful` (per sample when batched)."""
         return self.status == int(Status.successful)
 

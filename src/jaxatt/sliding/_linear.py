@@ -3,7 +3,7 @@
 from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import Quaternion, Vec3
-from .._validation import check_positive
+from .._validation import check_gain_shape, check_positive
 from ..rotations import quat_kinematics
 from ._base import AbstractSlidingSurface
 
@@ -27,7 +27,9 @@ class LinearSurface(AbstractSlidingSurface):
     slope: Float[Array, "*k"]
 
     def __init__(self, slope: ArrayLike):
-        self.slope = check_positive("LinearSurface", "slope", slope)
+        self.slope = check_gain_shape(
+            "LinearSurface", "slope", check_positive("LinearSurface", "slope", slope)
+        )
 
     def __call__(self, e: Quaternion, e_omega: Vec3) -> Vec3:
         return e_omega + self.slope * e[1:]
