@@ -5,8 +5,10 @@ cost and memory analyses, and the end of a run (load average, JSON, exit code).
 The timing convention (ahead-of-time `f.lower(*args).compile()` timed alone, one warm-up call,
 then `min(timeit.repeat(lambda: jax.block_until_ready(f(x)), number=1, repeat=R))`, fewer
 repeats when they would take over `--max-seconds`), the scenario checks and the initial states
-are those of `bench_montecarlo.py` and `jaxatt bench` (`jaxatt.bench._quick`), imported rather
-than copied.
+are those of `bench_montecarlo.py` and `bench_quick.py` (`_quick.py`), imported rather than
+copied. The jaxatt programs these scripts time run through `jaxatt.montecarlo.monte_carlo`
+(`bench_montecarlo.make_jaxatt`, `_quick.JAXATT_CALLS`). Like `_quick.py`, a plain module: the
+scripts run with benchmarks/ first on `sys.path`.
 
 Nothing here creates a JAX array at import: each script enables float64 (or not) first.
 """
@@ -19,22 +21,16 @@ import resource
 import sys
 import time
 
+import _quick
+import bench_montecarlo as montecarlo
 import jax
 import numpy as np
-
-from jaxatt.bench import _quick
-
-
-try:  # imported as `benchmarks._common`
-    from . import bench_montecarlo as montecarlo
-except ImportError:  # run as a script: benchmarks/ is sys.path[0]
-    import bench_montecarlo as montecarlo
 
 
 HERE = pathlib.Path(__file__).resolve().parent
 RESULTS_DIR = HERE / "results"
 
-# Re-exported: one definition of the conventions for every benchmark (`jaxatt bench` included).
+# Re-exported: one definition of the conventions for every benchmark (`bench_quick.py` included).
 time_jax = _quick.time_jax
 run_time = _quick.run_time
 default_save_every = _quick.default_save_every
@@ -265,7 +261,7 @@ def max_rss_mib() -> float:
 
 
 def m1_setup(seed: int, n: int, dtype):
-    """Chen 2022's M1 closed loop (checked against `jaxatt.bench._reference`) and `n` initial
+    """Chen 2022's M1 closed loop (checked against `_reference.py`) and `n` initial
     states `chen2022_tuning.initial_states(jr.key(seed), n)` as a `QuaternionState` of
     `dtype`. The loop's arrays are in the default float dtype: call after `enable_precision`."""
     import jax.numpy as jnp

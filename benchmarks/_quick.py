@@ -1,10 +1,16 @@
 """A quick throughput check of the Chen 2022 M1 Monte Carlo: jaxatt, a hand scan, NumPy.
 
-What `jaxatt bench` prints, and the measuring core of the repository's
-`benchmarks/bench_montecarlo.py` (which adds SciPy, Basilisk, float32 and the recorded runs).
+What `benchmarks/bench_quick.py` prints, and the measuring core of `bench_montecarlo.py`
+(which adds SciPy, Basilisk, float32 and the recorded runs) and of the other Chen 2022 M1
+benchmarks. A plain module: the scripts run with benchmarks/ first on `sys.path` (as
+`python benchmarks/bench_x.py` does) and `import _quick`.
+
 The closed loop is `jaxatt.scenarios.chen2022_two_phase_power.build("M1")`; the baselines are
-written from the paper's equations in [`._reference`][] (not with jaxatt code), and every row
-is checked against jaxatt's final states.
+written from the paper's equations in `_reference.py` (not with jaxatt code), and every row
+is checked against jaxatt's final states. jaxatt runs through its own batch runner,
+`jaxatt.montecarlo.monte_carlo` (the runner Monte Carlo studies, tuning and scenarios use), with
+its default options (`JAXATT_CALLS["monte_carlo"]`) or with scalarization off
+(`"monte_carlo_plain"`).
 
 Throughput is in *state-steps per second*: batch size x classic RK4 steps (four vector-field
 evaluations each) / wall time of one run. Compile time (ahead-of-time trace, lower and XLA
@@ -14,29 +20,33 @@ compile) is reported separately from run time (a warm-up call, then the minimum 
 import time
 import timeit
 
+import _reference as ref
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 
-import jaxatt
-
-from ..montecarlo import monte_carlo
-from ..plants import QuaternionState
-from ..scenarios import chen2022_tuning, chen2022_two_phase_power as chen
-from ..simulation import RESULTS, ClosedLoopState
-from . import _reference as ref
+from jaxatt.montecarlo import monte_carlo
+from jaxatt.plants import QuaternionState
+from jaxatt.scenarios import chen2022_tuning, chen2022_two_phase_power as chen
+from jaxatt.simulation import ClosedLoopState, Performance
 
 
+_MONTE_CARLO = (
+    "eqx.filter_jit(lambda loop, x0s: jaxatt.montecarlo.monte_carlo(loop, x0s, 0.0, T, dt=dt, "
+    "save_every=save_every, keep_trajectories=True{})) (default metrics computed; final states "
+    "read from the kept trajectories)"
+)
 JAXATT_CALLS = {
-    "monte_carlo": "eqx.filter_jit(lambda loop, x0s: jaxatt.montecarlo.monte_carlo(loop, x0s, "
-    "0.0, T, dt=dt, save_every=save_every, keep_trajectories=True)) (default metrics "
-    "computed; final states read from the kept trajectories)",
-    "monte_carlo_plain": "the same with monte_carlo(..., scalarize=False)",
-    "vmap": "eqx.filter_jit(lambda loop, x0s: jax.vmap(lambda x0: jaxatt.simulate(loop, x0, "
-    "0.0, T, dt=dt, throw=False, save_every=save_every))(x0s))",
+    "monte_carlo": _MONTE_CARLO.format("")
+    + ", default performance options (scalarized on CPU from 1000 samples per device)",
+    "monte_carlo_plain": _MONTE_CARLO.format(
+        ", performance=jaxatt.simulation.Performance(scalarize=False)"
+    )
+    + ": the plain vmapped program at every batch",
 }
+"""The jaxatt programs the benchmarks time, by name: both run `jaxatt.montecarlo.monte_carlo`."""
 
 
 def _tolerances(dtype) -> dict[str, float]:
@@ -55,7 +65,7 @@ def default_save_every(n_steps: int) -> int:
 
 
 def check_scenario(loop) -> None:
-    """Raise if the constants of [`._reference`][] are no longer those of the jaxatt loop."""
+    """Raise if the constants of `_reference.py` are no longer those of the jaxatt loop."""
     from jaxatt.controllers import NormRobustTerm, SlidingModeTracking
     from jaxatt.reaching import Sign, TwoPhasePower
     from jaxatt.references import IntegratedReference
@@ -170,45 +180,31 @@ def make_jaxatt(call: str, horizon: float, dt: float, save_every: int):
 
     `final`: the closed-loop states at `horizon`, shape (n, 11) (columns
     `_reference.STATE_NAMES`); `successful`: (n,) booleans; `result`: the
-    `MonteCarloResult` for `call == "monte_carlo"` (metrics, kept trajectories), else None.
+    `MonteCarloResult` (default metrics, status, kept trajectories).
     """
+    if call not in JAXATT_CALLS:
+        raise ValueError(f"unknown jaxatt call {call!r}; one of {sorted(JAXATT_CALLS)}")
+    performance = Performance(scalarize=False) if call == "monte_carlo_plain" else None
 
     def final_state(states: ClosedLoopState) -> jax.Array:
         return jnp.concatenate(
             [states.plant.q[:, -1], states.plant.omega[:, -1], states.reference[:, -1]], axis=-1
         )
 
-    if call in ("monte_carlo", "monte_carlo_plain"):
-        scalarize = None if call == "monte_carlo" else False
+    @eqx.filter_jit
+    def run(loop, x0s):
+        out = monte_carlo(
+            loop,
+            x0s,
+            0.0,
+            horizon,
+            dt=dt,
+            save_every=save_every,
+            keep_trajectories=True,
+            performance=performance,
+        )
+        return final_state(out.trajectories.states), out.successful, out
 
-        @eqx.filter_jit
-        def run(loop, x0s):
-            out = monte_carlo(
-                loop,
-                x0s,
-                0.0,
-                horizon,
-                dt=dt,
-                save_every=save_every,
-                keep_trajectories=True,
-                scalarize=scalarize,
-            )
-            return final_state(out.trajectories.states), out.result == RESULTS.successful, out
-
-    elif call == "vmap":
-
-        @eqx.filter_jit
-        def run(loop, x0s):
-            def one(x0):
-                return jaxatt.simulate(
-                    loop, x0, 0.0, horizon, dt=dt, save_every=save_every, throw=False
-                )
-
-            traj = jax.vmap(one)(x0s)
-            return final_state(traj.states), traj.successful, None
-
-    else:
-        raise ValueError(f"unknown jaxatt call {call!r}")
     return run
 
 
@@ -289,7 +285,7 @@ def measure_batch(
         "failed_samples": int(np.sum(~np.asarray(out[1]))),
         "timed_repeats": n,
     }
-    if out[2] is not None:  # monte_carlo: a few of its default metrics, as a sanity check
+    if out[2] is not None:  # a few of monte_carlo's default metrics, as a sanity check
         settle = np.asarray(out[2].metrics["settling_time"])
         row["jaxatt"]["settled_fraction_1e-2"] = float(np.mean(np.isfinite(settle)))
         row["jaxatt"]["max_peak_torque"] = float(np.max(out[2].metrics["peak_torque"]))
@@ -374,7 +370,7 @@ def quick_table(
 
 
 def format_table(rows: list[dict]) -> str:
-    """The rows of [`quick_table`][] as a plain-text table (rates in state-steps per second)."""
+    """The rows of `quick_table` as a plain-text table (rates in state-steps per second)."""
     header = (
         f"{'batch':>6} | {'jaxatt compile s':>16} | {'jaxatt st-st/s':>14} | "
         f"{'scan st-st/s':>12} | {'jaxatt/scan':>11} | {'NumPy st-st/s':>13} | "

@@ -29,19 +29,23 @@ other gain values: new arrays of the same shape, dtype and weak type, written in
 with `eqx.tree_at` (rho, eta, lambda, p1/q1, q2/p2 scaled by 1 + 0.05 k). Any new trace or
 compilation of the function is a recompilation, and the check fails. Entry points:
 
-- `simulate(loop_k, x0, ...)` called directly (counted: `_simulate`, its inner jit), over a
+- `simulate(loop_k, x0, ...)` called directly (counted: `integrate`, its inner jit), over a
   `--check-horizon` trajectory;
-- `bench_montecarlo.make_jaxatt("vmap", ...)`: `eqx.filter_jit` of `jax.vmap(simulate)` with the
-  loop as an argument (counted: `run`), batch `--check-batch`;
-- `jaxatt.montecarlo.monte_carlo(loop_k, x0s, ...)` called directly (counted: `_run`);
+- `bench_montecarlo.make_jaxatt("monte_carlo", ...)`: `eqx.filter_jit` of
+  `monte_carlo(..., keep_trajectories=True)` with the loop as an argument (counted: `run`),
+  batch `--check-batch`;
+- `jaxatt.montecarlo.monte_carlo(loop_k, x0s, ...)` called directly (counted: `run_batch`, its
+  inner jit);
 - `jaxatt.tune.tune(..., steps=variants + 1)` after `jax.clear_caches()`: every step changes the
   unconstrained gains (counted: `_loss_and_grad`; exactly one compilation expected);
 - `_loss_and_grad` called directly with `variants` templates whose gains differ (same
   parameters and objective objects as `tune` used: zero new compilations expected).
 
 Reported, not checked: the same direct `simulate` calls with *strongly typed* gains
-(`jnp.asarray(v, dtype=float64)`; the scenario's gains are weakly typed, so the first such call
-retraces), and whether `jaxatt.tune.apply` keeps the template's weak types.
+(`jnp.asarray(v, dtype=float64)`; weakly typed gains would make the first such call retrace,
+as any change of weak type does; jaxatt's constructors now store strongly typed arrays, so
+with the scenario's gains these calls are the variants above), and whether
+`jaxatt.tune.apply` keeps the template's weak types.
 
 **Recorded defaults** (estimated 3 to 5 minutes on 2 cores, most of it compiling and the six
 tuning steps of the `tune` check):
@@ -79,7 +83,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument(
         "--check-horizon", type=float, default=1.0, help="horizon of the recompile calls [s]"
     )
-    p.add_argument("--check-batch", type=int, default=64, help="batch of the vmapped calls")
+    p.add_argument("--check-batch", type=int, default=64, help="batch of the monte_carlo calls")
     p.add_argument("--no-tune", action="store_true", help="skip the tuning step")
     common.add_common_arguments(p)
     args = p.parse_args(argv)
@@ -301,7 +305,7 @@ def main(args) -> int:
 
     def batch_monte_carlo(loop, x0s):
         out = monte_carlo(loop, x0s, 0.0, args.horizon, dt=args.dt, save_every=save_every)
-        return out.metrics, out.result
+        return out.metrics, out.status
 
     # 1. Compile phases.
     rows = []
@@ -337,7 +341,7 @@ def main(args) -> int:
     variants = gain_variants(loop, parameters, args.variants)
     strong = gain_variants(loop, parameters, args.variants, strong=True)
     x0s = common.take(pool, args.check_batch)
-    run = common.montecarlo.make_jaxatt("vmap", horizon, args.dt, check_save)
+    run = common.montecarlo.make_jaxatt("monte_carlo", horizon, args.dt, check_save)
 
     def direct(m):
         return lambda: simulate(m, x0, 0.0, horizon, dt=args.dt, save_every=check_save)
@@ -348,12 +352,12 @@ def main(args) -> int:
         checks.append(
             {
                 "entry": "simulate(loop_k, x0, ...) directly",
-                **count_recompiles(log, "_simulate", [direct(m) for m in [loop, *variants]]),
+                **count_recompiles(log, "integrate", [direct(m) for m in [loop, *variants]]),
             }
         )
         checks.append(
             {
-                "entry": f"filter_jit(vmap(simulate)), loop an argument, batch {args.check_batch}",
+                "entry": f"filter_jit(monte_carlo), loop an argument, batch {args.check_batch}",
                 **count_recompiles(
                     log, "run", [lambda m=m: run(m, x0s) for m in [loop, *variants]]
                 ),
@@ -364,7 +368,7 @@ def main(args) -> int:
                 "entry": f"monte_carlo(loop_k, x0s, ...) directly, batch {args.check_batch}",
                 **count_recompiles(
                     log,
-                    "_run",
+                    "run_batch",
                     [
                         lambda m=m: (
                             monte_carlo(
@@ -412,7 +416,7 @@ def main(args) -> int:
             checks.append({"entry": entry, **count_recompiles(log, "_loss_and_grad", calls)})
         informational = {
             "entry": "simulate(loop_k, x0, ...) with strongly typed gains",
-            **count_recompiles(log, "_simulate", [direct(m) for m in [loop, *strong]]),
+            **count_recompiles(log, "integrate", [direct(m) for m in [loop, *strong]]),
         }
     applied = tune.apply(loop, parameters, u0)
     weak = {

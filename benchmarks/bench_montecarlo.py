@@ -17,12 +17,13 @@ then `min(timeit.repeat(lambda: jax.block_until_ready(f(x)), number=1, repeat=R)
 repeats when they would take over `--max-seconds`).
 
 Implementations timed in the same run (the baselines are written from the equations in
-`jaxatt.bench._reference`, not with jaxatt code):
+`benchmarks/_reference.py`, not with jaxatt code):
 
 - jaxatt (`--jaxatt-call monte_carlo`, default): `eqx.filter_jit` of
   `jaxatt.montecarlo.monte_carlo(loop, x0s, 0, T, dt=dt, save_every=steps/10,
-  keep_trajectories=True)` (default metrics included), the closed loop an argument;
-  `--jaxatt-call vmap`: `eqx.filter_jit(jax.vmap(simulate(..., throw=False, save_every=...)))`.
+  keep_trajectories=True)` (default metrics and performance options included), the closed loop
+  an argument; `--jaxatt-call monte_carlo_plain`: the same with
+  `performance=jaxatt.simulation.Performance(scalarize=False)`.
 - hand scan (`--no-scan` skips it): the reference component code under `jax.numpy` in one
   jitted `lax.scan`, batch axis innermost, everything elementwise: the floor of what XLA can do
   with this vector field (DESIGN.md, performance notes).
@@ -47,7 +48,8 @@ Usage (from the repository root):
     python benchmarks/bench_montecarlo.py                   # -> results/montecarlo.json
     python benchmarks/bench_montecarlo.py --dtype float32   # -> results/montecarlo_float32.json
 
-`quick_table()` runs a short version (jaxatt, hand scan, NumPy) and returns the rows.
+`_quick.quick_table()` runs a short version (jaxatt, hand scan, NumPy) and returns the rows;
+`bench_quick.py` prints it.
 """
 
 import argparse
@@ -62,15 +64,13 @@ import sys
 import time
 import timeit
 
+import _reference as ref
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
-
-import jaxatt
-from jaxatt.bench import _reference as ref
-from jaxatt.bench._quick import (  # the measuring core, shared with `jaxatt bench`
+from _quick import (  # the measuring core, shared with `bench_quick.py`
     JAXATT_CALLS,
     _tolerances,
     check_scenario,
@@ -81,6 +81,8 @@ from jaxatt.bench._quick import (  # the measuring core, shared with `jaxatt ben
     max_abs_diff,
     measure_batch,
 )
+
+import jaxatt
 from jaxatt.scenarios import chen2022_two_phase_power as chen
 
 
@@ -503,7 +505,7 @@ def main(args) -> int:
         f"to {args.repeat} timeit repeats after a warm-up call, fewer when they would take "
         f"over {args.max_seconds:g} s ('timed_repeats' in the JSON; 0 = the warm-up call is "
         "the measurement)",
-        "scan: the reference component code (jaxatt.bench._reference, not jaxatt code) "
+        "scan: the reference component code (benchmarks/_reference.py, not jaxatt code) "
         "under jax.numpy in one jitted lax.scan",
         f"NumPy: the same component code on (batch,) arrays, min over {args.baseline_repeat} "
         f"repeat(s); * = ran fewer steps (at most {args.numpy_state_steps:.0e} state-steps and "

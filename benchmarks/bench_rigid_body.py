@@ -48,10 +48,10 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 from _common import finish  # load average, JSON, exit code
+from _quick import run_time, time_jax  # the shared timing
 from bench_montecarlo import machine_meta
 from scipy.integrate import solve_ivp
 
-from jaxatt.bench._quick import run_time, time_jax  # the shared timing
 from jaxatt.plants import MRPState
 from jaxatt.scenarios import rigid_body_pd
 from jaxatt.simulation import simulate
@@ -300,7 +300,7 @@ def main(args):
         save_every -= 1
     tol_numpy, tol_scipy = (1e-9, 1e-6) if dtype == np.float64 else (1e-4, 1e-3)
 
-    loop, _ = rigid_body_pd.build()
+    loop = rigid_body_pd.build()
     check_scenario(loop)
     pool = rigid_body_pd.random_initial_states(jr.key(args.seed), max(args.batches))
     pool_sigma = np.asarray(pool.sigma)

@@ -19,14 +19,16 @@ by the batch, so the per-sample cost falls slightly with the batch.
 
 Programs, each at every batch in `--batches`:
 
-- `jaxatt vmap`: `bench_montecarlo.make_jaxatt("vmap", ...)`, `eqx.filter_jit` of
-  `jax.vmap(simulate(loop, x0, 0, T, dt=1e-3, save_every=steps/10, throw=False))` of
+- `jaxatt monte_carlo_plain`: `bench_montecarlo.make_jaxatt("monte_carlo_plain", ...)`,
+  `eqx.filter_jit` of `jaxatt.montecarlo.monte_carlo(loop, x0s, 0, T, dt=1e-3,
+  save_every=steps/10, keep_trajectories=True, performance=Performance(scalarize=False))` of
   `jaxatt.scenarios.chen2022_two_phase_power.build("M1")` (classic RK4, 30 N m saturation),
-  initial states `jaxatt.scenarios.chen2022_tuning.initial_states`;
-- `jaxatt monte_carlo`: `make_jaxatt("monte_carlo", ...)`, the same batch through
-  `jaxatt.montecarlo.monte_carlo(..., keep_trajectories=True)` (`--jaxatt-calls` picks them);
-- `hand scan`: `jaxatt.bench._reference.make_hand_scan` (the same equations written elementwise, one
-  `lax.scan`, not jaxatt code).
+  initial states `jaxatt.scenarios.chen2022_tuning.initial_states`: the plain vmapped program;
+- `jaxatt monte_carlo`: `make_jaxatt("monte_carlo", ...)`, the same call with monte_carlo's
+  default performance options (scalarized on CPU from 1000 samples; `--jaxatt-calls` picks
+  the jaxatt programs);
+- `hand scan`: `_reference.make_hand_scan` (`benchmarks/_reference.py`: the same equations
+  written elementwise, one `lax.scan`, not jaxatt code).
 
 **Achieved FLOP/s** = FLOPs per batch step x steps / run time over `--horizon` (compile timed
 apart; one warm-up call, then the min of `timeit.repeat(..., number=1, repeat=R)`), executed
@@ -66,9 +68,8 @@ A small run (about 1.5 minutes on a loaded 2-core machine):
 import argparse
 import sys
 
+import _reference as ref
 import numpy as np
-
-from jaxatt.bench import _reference as ref
 
 
 try:  # imported as `benchmarks.bench_roofline`
@@ -97,7 +98,7 @@ def parse_args(argv=None) -> argparse.Namespace:
         "--jaxatt-calls",
         nargs="+",
         choices=sorted(common.montecarlo.JAXATT_CALLS),
-        default=["vmap", "monte_carlo"],
+        default=["monte_carlo_plain", "monte_carlo"],
     )
     p.add_argument("--no-scan", action="store_true", help="skip the hand scan")
     p.add_argument("--no-plot", action="store_true", help="skip the figure")
@@ -320,7 +321,7 @@ def measure_program(name, loop, x0s, args, peak, measured, *, body_once: bool):
     row = {"program": name, "batch": batch, "steps": steps}
     cost = step_cost(short, inputs, k)
     if "error" in cost:
-        print(f"  {name:>18}, batch {batch:>6}: {cost['error']}")
+        print(f"  {name:>24}, batch {batch:>6}: {cost['error']}")
         return {**row, "error": cost["error"]}, None, None
     ratio = program_flops(long, inputs) / program_flops(short, inputs) if body_once else None
     compile_s, run_s, out, reps = common.time_jax(timed, inputs, args.repeat, args.max_seconds)
@@ -332,7 +333,7 @@ def measure_program(name, loop, x0s, args, peak, measured, *, body_once: bool):
     row.update({"compile_s": compile_s, "run_s": run_s, "timed_repeats": reps})
     row.update(rates(cost, batch, steps, run_s, peak, measured))
     print(
-        f"  {name:>18}, batch {batch:>6}: {row['flops_per_state_step']:.4g} FLOP run "
+        f"  {name:>24}, batch {batch:>6}: {row['flops_per_state_step']:.4g} FLOP run "
         f"({row['written_flops_per_state_step']:.4g} written), "
         f"{row['transcendentals_per_state_step']:.3g} transcendentals, "
         f"{row['bytes_per_state_step']:.4g} B per state-step; run {run_s:.4g} s, "
@@ -439,7 +440,7 @@ def main(args) -> int:
 
 def print_table(rows, peak, measured, args, meta) -> None:
     header = [
-        ("program", 18),
+        ("program", 24),
         ("batch", 6),
         ("FLOP/st-st", 10),
         ("written", 7),
@@ -466,11 +467,11 @@ def print_table(rows, peak, measured, args, meta) -> None:
     print("-" * len(line))
     for r in rows:
         if "error" in r:
-            print(f"{r['program']:>18} | {r['batch']:>6} | {r['error']}")
+            print(f"{r['program']:>24} | {r['batch']:>6} | {r['error']}")
             continue
         frac = r["achieved_fraction_of_derived_peak"]
         cells = [
-            f"{r['program']:>18}",
+            f"{r['program']:>24}",
             f"{r['batch']:>6}",
             f"{r['flops_per_state_step']:>10.4g}",
             f"{r['written_flops_per_state_step']:>7.4g}",
@@ -529,7 +530,7 @@ def plot(rows, peak, measured, args, meta, path) -> None:
         label=f"cache ({args.cache_kib:g} KiB arrays): {cache / 1e9:.3g} GB/s",
     )
     markers = {
-        "jaxatt vmap": ("o", "C0"),
+        "jaxatt monte_carlo_plain": ("o", "C0"),
         "jaxatt monte_carlo": ("D", "C2"),
         "hand scan": ("s", "C1"),
     }

@@ -7,10 +7,11 @@ dt = 1e-3 s, 30 N m per-axis saturation), initial states from
 **What runs.** `bench_montecarlo.make_jaxatt(call, T, dt, save_every)`: with `--jaxatt-call
 monte_carlo` (default) `eqx.filter_jit` of `jaxatt.montecarlo.monte_carlo(loop, x0s, 0, T,
 dt=dt, save_every=S, keep_trajectories=True)` (what users call: from 1000 samples on it runs
-`simulate(..., scalarize=True)`, so the batch sweep shows that switch); with `vmap`
-`eqx.filter_jit(lambda loop, x0s: jax.vmap(lambda x0: simulate(loop, x0, 0, T, dt=dt,
-throw=False, save_every=S))(x0s))`, the plain vmapped program at every batch. The loop is an
-argument, `S` is the largest divisor of the step count not above steps/10 (11 saves).
+the loop with `performance=Performance(scalarize=True)`, so the batch sweep shows that
+switch); with `monte_carlo_plain` the same call with
+`performance=jaxatt.simulation.Performance(scalarize=False)`, the plain vmapped program at
+every batch. The loop is an argument, `S` is the largest divisor of the step count not above
+steps/10 (11 saves).
 
 1. **Batch sweep** (`--batches`, at `--horizon`): compile time, run time, state-steps per
    second (batch x RK4 steps / run time), time per step (run time / steps: one step of the whole
@@ -35,10 +36,10 @@ Figures: `<JSON stem>_batch.png` and `<JSON stem>_horizon.png` next to the JSON 
 each smaller batch equal those of the same samples in the largest batch (1e-9; float32 1e-4);
 chunked `monte_carlo` gives the unchunked metrics (1e-9; float32 1e-4; relative to the metric
 where it exceeds 1, as for the effort, ~1e3) when both run the same program. Chunks under
-`SCALARIZE_FROM` = 1000 samples are not scalarized while the unchunked batch is: their
-difference is reported, not checked (their final states agree to ulps, but over a sliding phase
-the two programs' rounding differences grow transiently: 6.8e-9 of the effort of one sample
-in 16384 over 2 s, measured).
+`jaxatt.simulation.SCALARIZE_FROM` = 1000 samples are not scalarized while the unchunked batch
+is: their difference is reported, not checked (their final states agree to ulps, but over a
+sliding phase the two programs' rounding differences grow transiently: 6.8e-9 of the effort of
+one sample in 16384 over 2 s, measured).
 
 **Recorded defaults** (estimated 8 to 12 minutes on 2 cores, half of it the batch-16384 runs):
 
@@ -286,8 +287,8 @@ def chunk_study(loop, pool, args) -> tuple[list[dict], float | None]:
     largest difference of a chunked run's metrics from the unchunked ones."""
     import equinox as eqx
 
-    from jaxatt.montecarlo import default_scalarize, monte_carlo
-    from jaxatt.simulation import RESULTS
+    from jaxatt.montecarlo import monte_carlo
+    from jaxatt.simulation import Performance, samples_at_once
 
     steps = common.steps_of(args.chunk_horizon, args.dt)
     save_every = common.default_save_every(steps)
@@ -310,11 +311,12 @@ def chunk_study(loop, pool, args) -> tuple[list[dict], float | None]:
                 save_every=save_every,
                 batch_size=size,
             )
-            return out.metrics, out.result == RESULTS.successful
+            return out.metrics, out.successful
 
         row, (metrics, successful) = measure(chunked, loop, x0s, steps, args)
         row["batch_size"] = size
-        row["scalarized"] = default_scalarize(args.chunk_batch, batch_size=size)
+        at_once = samples_at_once(args.chunk_batch, batch_size=size, devices=len(jax.devices()))
+        row["scalarized"] = Performance().resolve(at_once).scalarize  # what monte_carlo decides
         row["failed_samples"] = int(np.sum(~np.asarray(successful)))
         metrics = {k: np.asarray(v) for k, v in metrics.items()}
         note = ""

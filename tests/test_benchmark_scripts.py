@@ -2,7 +2,8 @@
 import would go unnoticed until someone records numbers. Each script's `--help` imports
 everything it needs at module level (jax, jaxatt, the shared helpers) and must exit 0. All of
 them run in one fresh interpreter (as `python benchmarks/bench_x.py --help` would, benchmarks/
-first on sys.path), so JAX and jaxatt are imported once."""
+first on sys.path), so JAX and jaxatt are imported once. `bench_quick.py` (the former
+`jaxatt bench`) also runs for real at a tiny size."""
 
 import json
 import pathlib
@@ -46,3 +47,18 @@ def test_every_benchmark_script_imports_and_parses_help():
     assert done.returncode == 0, done.stderr[-2000:]
     report = json.loads(done.stdout.strip().splitlines()[-1])
     assert report == {script: "ok" for script in SCRIPTS}
+
+
+def test_bench_quick_prints_a_checked_table():
+    done = subprocess.run(
+        [sys.executable, str(BENCHMARKS / "bench_quick.py"), "--batches", "8", "--horizon", "0.05"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=BENCHMARKS.parent,
+    )
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    out = done.stdout
+    assert "jaxatt/scan" in out and "float64" in out
+    rows = [line for line in out.splitlines() if line.strip().startswith("8 |")]
+    assert len(rows) == 1

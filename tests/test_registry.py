@@ -1,0 +1,246 @@
+"""Every plant and controller (the library's and the stand-ins') through the generic checks.
+
+A new component joins by adding a case to `CASES`: a closed loop, a batch of three initial
+states, and the path of one array parameter. Each case must satisfy, on a short Euler run:
+
+- `vmap` equals a loop: `monte_carlo` over the batch equals `simulate` sample by sample;
+- jit compiles once per structure: changing the parameter's value compiles nothing new;
+- gradients are finite: of a scalar loss of the final state and the controls, with respect to
+  every array of the closed loop (the library's safe primitives at singular points);
+- bad input raises before compiling: a NaN in the initial state is a `ValueError` naming it.
+"""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+import numpy as np
+import pytest
+
+import jaxatt
+from jaxatt import montecarlo as mc
+from jaxatt.controllers import (
+    MRPPD,
+    FiniteTimeMRP,
+    OpenLoop,
+    QuaternionPD,
+    RateConstrainedFiniteTimeMRP,
+)
+from jaxatt.plants import MRPState, QuaternionState, RigidBodyMRP, RigidBodyQuaternion, Sinusoid
+from jaxatt.scenarios import chen2022_two_phase_power as chen, yu2022_ftac_mrp as yu
+from jaxatt.simulation import ClosedLoop, Euler, FirstOrderLag, Saturation
+
+from . import standins
+from .helpers import J0
+
+
+_COMPILES: list[str] = []
+jax.monitoring.register_event_duration_secs_listener(
+    lambda event, duration, **kwargs: _COMPILES.append(event)
+    if event == "/jax/core/compile/backend_compile_duration"
+    else None
+)
+
+T1, DT = 0.1, 0.01  # ten Euler steps: enough to exercise every term, cheap to compile
+
+
+def _quaternions(n=3, seed=0):
+    return mc.quaternion_states(jr.key(seed), n, max_rate=0.1, max_angle=2.0)
+
+
+def _mrps(n=3, seed=1):
+    return mc.mrp_states(jr.key(seed), n, max_rate=0.1, max_angle=2.5)
+
+
+def _translations(agents=()):
+    keys = jr.split(jr.key(2))
+    return standins.TranslationState(
+        jr.uniform(keys[0], (3, *agents, 3), minval=-1, maxval=1),
+        0.1 * jr.normal(keys[1], (3, *agents, 3)),
+    )
+
+
+def _flexible_states():
+    q = _quaternions()
+    return standins.FlexibleState(q.q, q.omega, 0.01 * jnp.ones((3, 2)), jnp.zeros((3, 2)))
+
+
+def _yu_batch():
+    return mc.barrier_states(
+        jr.key(4), 3, max_sigma=0.9, rate_limit=0.4, exponent=5 / 3, max_ratio=0.9
+    )
+
+
+CASES = {
+    "quaternion PD": (
+        lambda: ClosedLoop(RigidBodyQuaternion(J0), QuaternionPD(2.0, 10.0)),
+        _quaternions,
+        "controller.kp",
+    ),
+    "Chen M1 sliding mode (saturated, tracking)": (
+        lambda: chen.build("M1"),
+        _quaternions,
+        "controller.reaching_law.rho",
+    ),
+    "MRP PD, shadow switching, first-order lag": (
+        lambda: ClosedLoop(
+            RigidBodyMRP(J0), MRPPD(2.0, 10.0), actuator=FirstOrderLag(jnp.array([0.1, 0.2, 0.3]))
+        ),
+        _mrps,
+        "actuator.time_constant",
+    ),
+    "FT (Yu eq. 23)": (
+        lambda: ClosedLoop(RigidBodyMRP(J0, shadow_switching=False), FiniteTimeMRP(3.0, 1.0, 0.5)),
+        _mrps,
+        "controller.alpha1",
+    ),
+    "FTAC (Yu eq. 6), saturated": (
+        lambda: ClosedLoop(
+            RigidBodyMRP(yu.inertia(), shadow_switching=False),
+            RateConstrainedFiniteTimeMRP(0.03, 0.01, 0.5, 0.4),
+            actuator=Saturation(0.5),
+        ),
+        _yu_batch,
+        "controller.rate_limit",
+    ),
+    "FTAC + super-twisting observer (Yu eq. 29)": (
+        lambda: yu.build("FTAC", allow_inadmissible=False),
+        _yu_batch,
+        "observer.rho1",
+    ),
+    "open loop": (
+        lambda: ClosedLoop(
+            RigidBodyQuaternion(J0), OpenLoop(Sinusoid(jnp.array([0.1, 0.0, -0.2]), 0.5))
+        ),
+        _quaternions,
+        "controller.torque.amplitude",
+    ),
+    "stand-in: point mass PD": (
+        lambda: ClosedLoop(standins.PointMass(2.0), standins.TranslationPD(4.0, 3.0)),
+        _translations,
+        "controller.kd",
+    ),
+    "stand-in: Laplacian consensus": (
+        lambda: ClosedLoop(
+            standins.Agents(3), standins.ConsensusPD(np.diag([1.0, 2, 1]) - np.eye(3, k=1)
+                                                     - np.eye(3, k=-1), 1.5, 2.0)
+        ),
+        lambda: _translations((3,)),
+        "controller.kp",
+    ),
+    "stand-in: flexible body + Chen M1's law": (
+        lambda: ClosedLoop(
+            standins.FlexibleBody(
+                J0,
+                jnp.array([[1.2, 0.4, -0.3], [0.2, -0.8, 0.9]]),
+                jnp.array([1.5, 4.0]),
+                jnp.array([0.02, 0.05]),
+            ),
+            chen.build("M1").controller,
+        ),
+        _flexible_states,
+        "plant.frequencies",
+    ),
+    "stand-in: fractional PD memory": (
+        lambda: ClosedLoop(
+            standins.PointMass(1.0), standins.FractionalPD(4.0, 2.0, 0.7, DT, 5)
+        ),
+        _translations,
+        "controller.alpha",
+    ),
+}
+
+
+def _index(tree, k):
+    return jax.tree.map(lambda x: x[k], tree)
+
+
+def _final(traj):
+    return sum(jnp.sum(leaf[-1] ** 2) for leaf in jax.tree.leaves(traj.states.plant)) + jnp.sum(
+        traj.signals["u"] ** 2
+    )
+
+
+@eqx.filter_jit
+def _grad(loop, x0):
+    def loss(loop):
+        return _final(jaxatt.simulate(loop, x0, 0.0, T1, dt=DT, solver=Euler(), throw=False))
+
+    return eqx.filter_grad(loss)(loop)
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_generic_contract(name):
+    make_loop, make_x0s, path = CASES[name]
+    loop, x0s = make_loop(), make_x0s()
+    common = dict(dt=DT, solver=Euler())
+
+    # vmap = loop (monte_carlo's batch runner against simulate, sample by sample).
+    batch = mc.monte_carlo(
+        loop, x0s, 0.0, T1, metrics={"peak": jaxatt.metrics.Peak("u")}, keep_trajectories=True,
+        **common,
+    )
+    assert bool(np.all(batch.successful)), batch.status
+    singles = [jaxatt.simulate(loop, _index(x0s, k), 0.0, T1, **common) for k in range(3)]
+    for k, single in enumerate(singles):
+        for a, b in zip(jax.tree.leaves(_index(batch.trajectories.states, k)),
+                        jax.tree.leaves(single.states)):
+            np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-14)
+
+    # One compilation per structure: a new value of a parameter compiles nothing.
+    select = jaxatt._paths.path_selector(path)
+    other = eqx.tree_at(select, loop, select(loop) * 1.1)
+    before = len(_COMPILES)
+    changed = jaxatt.simulate(other, _index(x0s, 0), 0.0, T1, **common)
+    assert len(_COMPILES) == before, f"{name}: changing {path} recompiled"
+    assert not all(  # and the new value is used
+        np.array_equal(a, b)
+        for a, b in zip(jax.tree.leaves(changed.states), jax.tree.leaves(singles[0].states))
+    )
+
+    # Finite gradients with respect to every array of the closed loop.
+    grads = _grad(loop, _index(x0s, 0))
+    leaves = jax.tree.leaves(eqx.filter(grads, eqx.is_array))
+    assert leaves and all(bool(jnp.all(jnp.isfinite(g))) for g in leaves), name
+    assert any(bool(jnp.any(g != 0)) for g in leaves), name
+
+    # Bad input raises before compiling, naming the argument.
+    first, *rest = jax.tree.leaves(_index(x0s, 0))
+    bad = jax.tree.unflatten(
+        jax.tree.structure(_index(x0s, 0)), [first.at[(0,) * first.ndim].set(jnp.nan), *rest]
+    )
+    before = len(_COMPILES)
+    with pytest.raises(ValueError, match=r"`x0\.\w+` must be finite"):
+        jaxatt.simulate(loop, bad, 0.0, T1, **common)
+    assert len(_COMPILES) == before
+
+
+def _component_types(node, found=None) -> set[type]:
+    found = set() if found is None else found
+    if isinstance(node, eqx.Module):
+        found.add(type(node))
+        for field in node.__dataclass_fields__:
+            _component_types(getattr(node, field, None), found)
+    elif isinstance(node, (tuple, list)):
+        for item in node:
+            _component_types(item, found)
+    return found
+
+
+def test_the_registry_covers_every_public_plant_controller_observer_and_actuator():
+    covered = set()
+    for make_loop, _, _ in CASES.values():
+        covered |= _component_types(make_loop())
+    public = set()
+    for package, base in (
+        (jaxatt.plants, jaxatt.plants.AbstractPlant),
+        (jaxatt.controllers, jaxatt.controllers.AbstractController),
+        (jaxatt.observers, jaxatt.observers.AbstractObserver),
+    ):
+        for value in vars(package).values():
+            if isinstance(value, type) and issubclass(value, base) and value is not base:
+                public.add(value)
+    assert public - covered == set(), sorted(t.__name__ for t in public - covered)
+    assert {MRPState, QuaternionState} <= {
+        make_x0s().__class__ for _, make_x0s, _ in CASES.values()
+    }
