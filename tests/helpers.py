@@ -1,5 +1,6 @@
-"""Shared test models: small, fixed scenarios built once per module."""
+"""Shared test models: small, fixed scenarios built once per module, and a compile counter."""
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -61,3 +62,23 @@ def mrp_x0() -> MRPState:
 
 def quat_x0() -> QuaternionState:
     return QuaternionState(q=jnp.asarray(Q0), omega=jnp.array([0.02, -0.01, 0.03]))
+
+
+_BACKEND_COMPILES: list[str] = []
+
+
+def _count_compile(event: str, duration: float, **kwargs) -> None:
+    if event == "/jax/core/compile/backend_compile_duration":
+        _BACKEND_COMPILES.append(str(kwargs.get("fun_name", "")))
+
+
+jax.monitoring.register_event_duration_secs_listener(_count_compile)
+
+
+def compile_count(name: str | None = None) -> int:
+    """XLA compilations so far in this process, from JAX's public monitoring events; with
+    `name`, only those of functions whose name contains it (e.g. "integrate",
+    "_loss_and_grad"). Compare two readings to check that a call compiled nothing new."""
+    if name is None:
+        return len(_BACKEND_COMPILES)
+    return sum(name in fun for fun in _BACKEND_COMPILES)

@@ -31,15 +31,8 @@ from jaxatt.scenarios import chen2022_two_phase_power as chen, yu2022_ftac_mrp a
 from jaxatt.simulation import ClosedLoop, Euler, FirstOrderLag, Saturation
 
 from . import standins
-from .helpers import J0
+from .helpers import J0, compile_count
 
-
-_COMPILES: list[str] = []
-jax.monitoring.register_event_duration_secs_listener(
-    lambda event, duration, **kwargs: _COMPILES.append(event)
-    if event == "/jax/core/compile/backend_compile_duration"
-    else None
-)
 
 T1, DT = 0.1, 0.01  # ten Euler steps: enough to exercise every term, cheap to compile
 
@@ -190,9 +183,9 @@ def test_generic_contract(name):
     # One compilation per structure: a new value of a parameter compiles nothing.
     select = jaxatt._paths.path_selector(path)
     other = eqx.tree_at(select, loop, select(loop) * 1.1)
-    before = len(_COMPILES)
+    before = compile_count()
     changed = jaxatt.simulate(other, _index(x0s, 0), 0.0, T1, **common)
-    assert len(_COMPILES) == before, f"{name}: changing {path} recompiled"
+    assert compile_count() == before, f"{name}: changing {path} recompiled"
     assert not all(  # and the new value is used
         np.array_equal(a, b)
         for a, b in zip(jax.tree.leaves(changed.states), jax.tree.leaves(singles[0].states))
@@ -209,10 +202,10 @@ def test_generic_contract(name):
     bad = jax.tree.unflatten(
         jax.tree.structure(_index(x0s, 0)), [first.at[(0,) * first.ndim].set(jnp.nan), *rest]
     )
-    before = len(_COMPILES)
+    before = compile_count()
     with pytest.raises(ValueError, match=r"`x0\.\w+` must be finite"):
         jaxatt.simulate(loop, bad, 0.0, T1, **common)
-    assert len(_COMPILES) == before
+    assert compile_count() == before
 
 
 def _component_types(node, found=None) -> set[type]:

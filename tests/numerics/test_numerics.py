@@ -112,3 +112,24 @@ def test_closed_form_3x3_linear_algebra_matches_numpy():
     g = jax.grad(lambda a: jnp.sum(solve3(a, jnp.ones(3))))(jnp.asarray(a))
     g_ref = -np.outer(np.linalg.solve(a.T, np.ones(3)), np.linalg.solve(a, np.ones(3)))
     np.testing.assert_allclose(g, g_ref, rtol=1e-10)
+
+
+def test_nonfinite_input_is_never_hidden_as_zero():
+    # Regression: safe_norm returned 0 for a vector holding a NaN (its mask `squared > 0` is
+    # False for NaN), so a diverged state looked settled; the same pattern hid NaN in the
+    # quaternion angle and inverse, the MRP shadow, the overshoot and the soft settling time.
+    from jaxatt.metrics import overshoot, soft_settling_time
+    from jaxatt.rotations import mrp_shadow, quat_angle, quat_inverse
+
+    nan3 = jnp.array([jnp.nan, 1.0, 2.0])
+    assert np.isnan(safe_norm(nan3))
+    assert np.isinf(safe_norm(jnp.array([jnp.inf, 1.0, 0.0])))
+    assert float(safe_norm(jnp.zeros(3))) == 0.0
+    np.testing.assert_array_equal(jax.grad(safe_norm)(jnp.zeros(3)), [0.0, 0.0, 0.0])
+    assert np.all(np.isnan(safe_normalize(nan3))[:1])
+    assert np.isnan(quat_angle(jnp.array([jnp.nan, 0.0, 0.0, 0.0])))
+    assert np.all(np.isnan(quat_inverse(jnp.array([jnp.nan, 0.1, 0.0, 0.0]))))
+    assert np.all(np.isnan(mrp_shadow(nan3)))
+    assert np.isnan(overshoot(jnp.array([[jnp.nan], [0.5]]))[0])
+    ts = jnp.linspace(0.0, 1.0, 11)
+    assert np.isnan(soft_settling_time(ts, jnp.full(11, jnp.nan), 1e-2))

@@ -13,6 +13,8 @@ from jaxatt.plants import QuaternionState
 from jaxatt.scenarios import chen2022_tuning, chen2022_two_phase_power as chen
 from jaxatt.simulation import ClosedLoop
 
+from ..helpers import compile_count
+
 
 @pytest.mark.parametrize(
     "transform, values",
@@ -153,12 +155,11 @@ def test_tuning_into_divergence_stops_with_a_clear_error_and_a_good_checkpoint(t
 
 
 def test_interrupted_run_resumes_bit_identically(tmp_path):
-    from jaxatt.tune._loop import _loss_and_grad
-
     loop, x0s, params, objective = _small_problem()
     optimizer = optax.adam(0.1)
     tune.loss_and_grad(tune.initial_unconstrained(loop, params), loop, params, objective, x0s)
-    compiled_before = _loss_and_grad._cached._cache_size()
+    tune.tune(loop, params, objective, x0s, steps=1, optimizer=optimizer, progress=False)
+    compiled_before = compile_count("_loss_and_grad"), compile_count("_update")
     full = tune.tune(loop, params, objective, x0s, steps=4, optimizer=optimizer, progress=False)
 
     path = tmp_path / "run.eqx"
@@ -204,9 +205,9 @@ def test_interrupted_run_resumes_bit_identically(tmp_path):
     assert np.array_equal(longer.losses, full.losses)
     for name in params:
         assert np.array_equal(longer.gains[name], full.gains[name]), name
-    # Every step of every run, before and after resuming, ran the program compiled for the
-    # `tune.loss_and_grad` call above: nothing compiled again.
-    assert _loss_and_grad._cached._cache_size() == compiled_before
+    # Every step of every run, before and after resuming, ran the programs compiled for the
+    # calls above (the loss and gradient, and this optimizer's update): nothing compiled again.
+    assert (compile_count("_loss_and_grad"), compile_count("_update")) == compiled_before
     with pytest.raises(ValueError, match="4 steps done, more than steps=2"):
         tune.tune(loop, params, objective, x0s, steps=2, resume=True, **common)
     with pytest.raises(ValueError, match="does not belong to this tuning problem"):
@@ -245,12 +246,10 @@ def test_interrupted_run_resumes_bit_identically(tmp_path):
     ],
 )
 def test_bad_tuning_configuration_fails_before_compiling(change, needle):
-    from jaxatt.tune._loop import _loss_and_grad, _update
-
     loop, x0s, params, objective = _small_problem()
     args = dict(parameters=params, inputs=x0s, steps=2, resume=False)
     args.update(change)
-    before = _loss_and_grad._cached._cache_size(), _update._cached._cache_size()
+    before = compile_count()
     with pytest.raises(ValueError) as info:
         tune.tune(
             loop,
@@ -262,8 +261,7 @@ def test_bad_tuning_configuration_fails_before_compiling(change, needle):
             progress=False,
         )
     assert needle in str(info.value)
-    after = _loss_and_grad._cached._cache_size(), _update._cached._cache_size()
-    assert after == before  # nothing was compiled
+    assert compile_count() == before  # nothing was compiled
 
 
 def test_aggregates():
