@@ -118,16 +118,9 @@ def _signal(traj, name: str) -> Array:
     return traj.signals[name]
 
 
-class SettlingTime(AbstractMetric):
-    r"""Exact last exit time of `norm(signal)` from the band $\le$ `tolerance`
-    ([`settling_time`][], interpolated): `inf` if the record ends outside; `inf` for a failed
-    sample.
-
-    **Arguments:**
-    - `signal`: a signal name, e.g. `"attitude_error_vector"`.
-    - `tolerance`: the band, in the signal's unit.
-    - `norm`: [`Euclidean`][]`()` (default), [`MaxAbs`][]`()`, [`Absolute`][]`()`, ...
-    """
+class _AbstractBandTime(AbstractMetric):
+    """A time computed from `norm(signal)` and a tolerance band, per component of the norm;
+    `inf` for a failed sample. Concrete metrics say which time (`_time`)."""
 
     signal: str = eqx.field(static=True)
     tolerance: Float[Array, ""]
@@ -138,12 +131,39 @@ class SettlingTime(AbstractMetric):
         self, signal: str, tolerance: RealScalarLike, norm: AbstractNorm | None = None
     ):
         self.signal = str(signal)
-        self.tolerance = check_positive("SettlingTime", "tolerance", tolerance)
+        self.tolerance = check_positive(type(self).__name__, "tolerance", tolerance)
         self.norm = Euclidean() if norm is None else norm
+
+    @abc.abstractmethod
+    def _time(self, ts: Array, x: Array) -> Array:
+        """The time of one magnitude signal `x` (T,)."""
 
     def __call__(self, traj) -> Array:
         x = self.norm(_signal(traj, self.signal))
-        return _per_component(lambda ts, v: settling_time(ts, v, self.tolerance), traj.ts, x)
+        return _per_component(self._time, traj.ts, x)
+
+
+class SettlingTime(_AbstractBandTime):
+    r"""Exact last exit time of `norm(signal)` from the band $\le$ `tolerance`
+    ([`settling_time`][], interpolated): `inf` if the record ends outside; `inf` for a failed
+    sample.
+
+    **Arguments:**
+    - `signal`: a signal name, e.g. `"attitude_error_vector"`.
+    - `tolerance`: the band, in the signal's unit.
+    - `norm`: [`Euclidean`][]`()` (default), [`MaxAbs`][]`()`, [`Absolute`][]`()`, ...
+    """
+
+    def _time(self, ts, x):
+        return settling_time(ts, x, self.tolerance)
+
+
+class TimeOutside(_AbstractBandTime):
+    """Total time `norm(signal)` spends above `tolerance` ([`time_outside`][]); NaN counts as
+    outside; `inf` for a failed sample. Arguments as [`SettlingTime`][]."""
+
+    def _time(self, ts, x):
+        return time_outside(ts, x, self.tolerance)
 
 
 class ConvergenceTime(AbstractMetric):
@@ -180,27 +200,6 @@ class ConvergenceTime(AbstractMetric):
         return _per_component(
             lambda ts, v: convergence_time(ts, v, self.tolerance, self.window), traj.ts, x
         )
-
-
-class TimeOutside(AbstractMetric):
-    """Total time `norm(signal)` spends above `tolerance` ([`time_outside`][]); NaN counts as
-    outside; `inf` for a failed sample."""
-
-    signal: str = eqx.field(static=True)
-    tolerance: Float[Array, ""]
-    norm: AbstractNorm
-    failure_value: ClassVar[float] = float("inf")
-
-    def __init__(
-        self, signal: str, tolerance: RealScalarLike, norm: AbstractNorm | None = None
-    ):
-        self.signal = str(signal)
-        self.tolerance = check_positive("TimeOutside", "tolerance", tolerance)
-        self.norm = Euclidean() if norm is None else norm
-
-    def __call__(self, traj) -> Array:
-        x = self.norm(_signal(traj, self.signal))
-        return _per_component(lambda ts, v: time_outside(ts, v, self.tolerance), traj.ts, x)
 
 
 class Peak(AbstractMetric):
