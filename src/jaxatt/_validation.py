@@ -58,12 +58,10 @@ def as_float_array(x: ArrayLike, name: str, where: str) -> Array:
     if isinstance(x, jax.Array) and jnp.issubdtype(x.dtype, jnp.floating):
         return jnp.asarray(x, dtype=x.dtype)  # keeps float32 arrays float32, drops weak type
     if np.issubdtype(host.dtype, np.floating) and not isinstance(x, (float, int)):
-        return jnp.asarray(host, dtype=jnp.dtype(host.dtype) if _x64() else None)
+        # NumPy float arrays keep their precision (float32 stays float32), within what JAX's
+        # configuration allows (float64 becomes float32 without x64).
+        return jnp.asarray(host, dtype=jax.dtypes.canonicalize_dtype(host.dtype))
     return jnp.asarray(host, dtype=jnp.result_type(float))
-
-
-def _x64() -> bool:
-    return bool(jax.config.read("jax_enable_x64"))
 
 
 def check(

@@ -43,15 +43,14 @@ Metrics = Mapping[str, AbstractMetric] | Callable[[Trajectory], Mapping[str, Arr
 
 
 def default_metrics(closed_loop: AbstractClosedLoop, *, tolerance: float = 1e-2) -> dict:
-    """The metrics [`monte_carlo`][] records when `metrics=None`: the plant's
-    `default_metrics(tolerance)` (for rigid bodies: `settling_time` of the attitude-error
-    vector to `tolerance`, `peak_torque`, `effort`, `max_rate_error`)."""
-    plant = getattr(closed_loop, "plant", None)
-    metrics = {} if plant is None else plant.default_metrics(tolerance)
+    """The metrics [`monte_carlo`][] records when `metrics=None`: the closed loop's
+    `default_metrics(tolerance)`, i.e. its plant's (for rigid bodies: `settling_time` of the
+    attitude-error vector to `tolerance`, `peak_torque`, `effort`, `max_rate_error`)."""
+    metrics = closed_loop.default_metrics(tolerance)
     if not metrics:
         raise ValueError(
-            f"monte_carlo: {type(plant).__name__ if plant is not None else 'the closed loop'} "
-            "declares no default metrics; pass `metrics=` (a dict name -> metric object, e.g. "
+            f"monte_carlo: {type(closed_loop).__name__} declares no default metrics; pass "
+            "`metrics=` (a dict name -> metric object, e.g. "
             "{'settling_time': jaxatt.metrics.SettlingTime('error', 1e-2)})."
         )
     return metrics

@@ -22,6 +22,7 @@ from jaxtyping import Array, Bool, Int, PyTree
 
 from .._custom_types import RealScalarLike
 from ..controllers import AbstractController
+from ..metrics import AbstractMetric
 from ..observers import AbstractObserver, ObservedMeasurement
 from ..plants import AbstractPlant
 from ..references import AbstractReference
@@ -47,7 +48,9 @@ class AbstractClosedLoop(eqx.Module):
       hold;
     - `status(t, y) -> Int[]`: a [`Status`][] code (0 when all is well);
     - `signals(t, y, held) -> dict`: named outputs recorded at the save times; `"u"` is the
-      applied control by convention.
+      applied control by convention;
+    - `default_metrics(tolerance)` (optional): what `monte_carlo` records when given no
+      metrics.
     """
 
     @abc.abstractmethod
@@ -87,6 +90,11 @@ class AbstractClosedLoop(eqx.Module):
     @abc.abstractmethod
     def signals(self, t: RealScalarLike, y: PyTree[Array], held) -> dict[str, Array]:
         """Named outputs at a save time."""
+
+    def default_metrics(self, tolerance: float) -> dict[str, AbstractMetric]:
+        """Metric objects `monte_carlo` records when given none (default: none)."""
+        del tolerance
+        return {}
 
     def __call__(self, t, y, args):
         """`vector_field` with diffrax's `(t, y, args)` signature (`args` = held outputs)."""
@@ -213,10 +221,14 @@ class ClosedLoop(AbstractClosedLoop):
         self.actuator = Ideal() if actuator is None else actuator
         self.observer = observer
 
-    # --- Host-side checks ------------------------------------------------------------------
+    # --- Host-side checks and defaults -----------------------------------------------------
 
     def check_state(self, x0: PyTree, name: str = "x0", batch_shape: tuple[int, ...] = ()):
         return self.plant.check_state(x0, name, batch_shape)
+
+    def default_metrics(self, tolerance: float) -> dict[str, AbstractMetric]:
+        """The plant's default metrics (see `AbstractPlant.default_metrics`)."""
+        return self.plant.default_metrics(tolerance)
 
     def check_initial(self, t0: float, x0: PyTree) -> None:
         if type(self.controller).check_initial is AbstractController.check_initial:
@@ -252,19 +264,14 @@ class ClosedLoop(AbstractClosedLoop):
 
     def init(self, t0: RealScalarLike, x0: PyTree[Array]) -> ClosedLoopState:
         reference_state = self.reference.init(t0)
-        reference, _ = self.reference(t0, reference_state)
-        measurement = self.plant.measure(t0, x0)
         observer_state = None
-        reads = measurement
         if self.observer is not None:
-            observer_state = self.observer.init(t0, measurement)
-            if self._reads_estimate:
-                estimate = self.observer.estimate(t0, measurement, observer_state)
-                reads = ObservedMeasurement(measurement, estimate)
+            observer_state = self.observer.init(t0, self.plant.measure(t0, x0))
+        y = ClosedLoopState(x0, reference_state, None, observer_state, None)
+        reference, _, reads = self._controller_inputs(t0, y)
         controller_state = self.controller.init(t0, reads, reference)
         y = ClosedLoopState(x0, reference_state, controller_state, observer_state, None)
-        command = self._flight(t0, y).command
-        actuator_state = self.actuator.init(t0, command)
+        actuator_state = self.actuator.init(t0, self._flight(t0, y).command)
         return ClosedLoopState(
             x0, reference_state, controller_state, observer_state, actuator_state
         )
