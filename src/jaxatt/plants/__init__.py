@@ -12,6 +12,13 @@ from ..signals import (
     Sum as Sum,
 )
 from ._base import AbstractPlant as AbstractPlant
+from ._relative_pose import (
+    POSE_GROUPS as POSE_GROUPS,
+    CoupledAttitudeOrbit as CoupledAttitudeOrbit,
+    RelativePoseModel as RelativePoseModel,
+    RelativePoseState as RelativePoseState,
+    TargetState as TargetState,
+)
 from ._rigid_body import (
     MRPState as MRPState,
     QuaternionState as QuaternionState,

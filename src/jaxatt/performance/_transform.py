@@ -1,0 +1,60 @@
+r"""The prescribed-performance error transformation (Zhang et al. 2021 eqs. 22-30, $\delta = 1$)."""
+
+from typing import NamedTuple
+
+import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike, Float
+
+
+class TransformedError(NamedTuple):
+    r"""The transformed error of [`transform_error`][].
+
+    - `kappa`: $\kappa = \operatorname{atanh}(z)$, $z = e/\rho$;
+    - `beta`: $\beta = \partial\kappa/\partial e = 1/(\rho(1 - z^2))$;
+    - `kappa_dot`: $\dot\kappa = \beta(\dot e - e\,\dot\rho/\rho)$;
+    - `z`: the normalised error $e/\rho$ (unclipped; $|z| \ge 1$ means a violation).
+    """
+
+    kappa: Float[Array, "*k"]
+    beta: Float[Array, "*k"]
+    kappa_dot: Float[Array, "*k"]
+    z: Float[Array, "*k"]
+
+
+Z_LIMIT = 1.0 - 1e-9
+"""$|z|$ is clipped to this inside `atanh` and $\\beta$: $\\kappa$ stays below 10.7 and
+$\\beta\\rho$ below $5\\times10^8$, finite in float32 and float64."""
+
+
+def transform_error(
+    error: Float[ArrayLike, "*k"],
+    error_rate: Float[ArrayLike, "*k"],
+    rho: Float[ArrayLike, "*k"],
+    rho_dot: Float[ArrayLike, "*k"],
+) -> TransformedError:
+    r"""Transform an error constrained to $|e| < \rho$ into an unconstrained one.
+
+    With $e = \rho\tanh\kappa$ (eqs. 22-27): $z = e/\rho$, $\kappa = \operatorname{atanh} z
+    = \tfrac12\ln\frac{1+z}{1-z}$, $\beta = 1/(\rho(1 - z^2))$ (eq. 29) and
+    $\dot\kappa = \beta(\dot e - e\dot\rho/\rho)$ (eq. 30). Elementwise.
+
+    **Guard.** For $|z| \ge 1$ (the error left its envelope) the inverse does not exist;
+    $z$ is clipped to $\pm$[`Z_LIMIT`][] inside `atanh` and $\beta$, so the values stay finite
+    (never NaN) and the caller reports the violation (a controller's `admissible` hook, so the
+    sample's status becomes `constraint_violated`). `z` is returned unclipped.
+    """
+    e = jnp.asarray(error)
+    rho = jnp.asarray(rho)
+    z = e / rho
+    zc = jnp.clip(z, -Z_LIMIT, Z_LIMIT)
+    kappa = jnp.arctanh(zc)
+    beta = 1.0 / (rho * (1.0 - zc**2))
+    kappa_dot = beta * (jnp.asarray(error_rate) - e * jnp.asarray(rho_dot) / rho)
+    return TransformedError(kappa, beta, kappa_dot, z)
+
+
+def envelope_margin(
+    error: Float[ArrayLike, "*k"], rho: Float[ArrayLike, "*k"]
+) -> Float[Array, "*k"]:
+    r"""$\rho - |e|$: positive inside the envelope, $\le 0$ for a violation."""
+    return jnp.asarray(rho) - jnp.abs(jnp.asarray(error))
