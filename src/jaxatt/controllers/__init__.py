@@ -10,6 +10,10 @@ from ._finite_time import (
 from ._observer_compensated import ObserverCompensated as ObserverCompensated
 from ._open_loop import OpenLoop as OpenLoop
 from ._pd import MRPPD as MRPPD, QuaternionPD as QuaternionPD
+from ._pose_sliding_mode import (
+    POSE_COMPONENTS as POSE_COMPONENTS,
+    PoseSlidingMode as PoseSlidingMode,
+)
 from ._robust import (
     AbstractRobustTerm as AbstractRobustTerm,
     AxisRobustTerm as AxisRobustTerm,

@@ -13,6 +13,8 @@ from . import (
     demo as demo,
     rigid_body_pd as rigid_body_pd,
     yu2022_ftac_mrp as yu2022_ftac_mrp,
+    zhang2021_hover as zhang2021_hover,
+    zhang2021_tuning as zhang2021_tuning,
 )
 from ._protocol import Scenario as Scenario, TuningProblem as TuningProblem
 
@@ -23,9 +25,12 @@ REGISTRY: dict[str, Scenario] = {
         rigid_body_pd.SCENARIO,
         chen2022_two_phase_power.SCENARIO,
         yu2022_ftac_mrp.SCENARIO,
+        zhang2021_hover.SCENARIO,
     )
 }
 """Scenarios by CLI name (`jaxatt reproduce NAME`)."""
 
-TUNING: dict[str, TuningProblem] = {chen2022_tuning.PROBLEM.name: chen2022_tuning.PROBLEM}
+TUNING: dict[str, TuningProblem] = {
+    problem.name: problem for problem in (chen2022_tuning.PROBLEM, zhang2021_tuning.PROBLEM)
+}
 """Tuning problems by CLI name (`jaxatt tune NAME`)."""

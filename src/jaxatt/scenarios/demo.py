@@ -167,14 +167,21 @@ def _write_report(out: pathlib.Path, summary: dict, n: int, tuning: dict) -> Non
         "| held-out metric | paper gains | tuned |",
         "| --- | --- | --- |",
     ]
-    for key in ("mean_settling_time", "p95_settling_time", "worst_settling_time",
-                "settled_fraction", "max_peak_torque", "max_chattering"):
+    for key in (
+        "mean_settling_time",
+        "p95_settling_time",
+        "worst_settling_time",
+        "settled_fraction",
+        "max_peak_torque",
+        "max_chattering",
+    ):
         lines.append(f"| {key} | {_fmt(before[key])} | {_fmt(after[key])} |")
     reduction = t["mean_settling_time_reduction"]
     lines += [
         "",
         "Mean held-out settling time reduced by "
-        + ("n/a" if reduction is None else f"{100 * reduction:.1f} %") + ".",
+        + ("n/a" if reduction is None else f"{100 * reduction:.1f} %")
+        + ".",
         "Details: `tuning/report.md`, `tuning/loss.png`, `tuning/settling_cdf.png`.",
         "",
         "Wall time per stage [s]: "
@@ -182,5 +189,3 @@ def _write_report(out: pathlib.Path, summary: dict, n: int, tuning: dict) -> Non
         "",
     ]
     (out / "report.md").write_text("\n".join(lines))
-
-

@@ -30,6 +30,7 @@ from ._objective import (
     AbstractObjective as AbstractObjective,
     CVaR as CVaR,
     Mean as Mean,
+    MetricObjective as MetricObjective,
     Penalty as Penalty,
     Quantile as Quantile,
     SettlingObjective as SettlingObjective,

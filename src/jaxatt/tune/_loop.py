@@ -215,9 +215,7 @@ def tune(
                 state.unconstrained, template, parameters, objective, inputs
             )
             loss_value = float(loss)
-            bad = [
-                name for name, g in grads.items() if not np.all(np.isfinite(np.asarray(g)))
-            ]
+            bad = [name for name, g in grads.items() if not np.all(np.isfinite(np.asarray(g)))]
             if not math.isfinite(loss_value) or bad:
                 write(state)  # the last good step, never the failing one
                 gains_now = constrained(state.unconstrained, parameters)

@@ -120,8 +120,9 @@ SAMPLE_METRICS = (
 class Penalty(eqx.Module):
     r"""`weight * mean(max(0, metric - bound)^2)` over the batch for a per-sample metric.
 
-    `metric` is a key of the objective's per-sample metrics: `"peak_torque"`,
-    `"peak_command"`, `"effort"` or `"chattering"`.
+    `metric` is a key of the objective's per-sample metrics: for a [`SettlingObjective`][]
+    `"peak_torque"`, `"peak_command"`, `"effort"` or `"chattering"`; for a
+    [`MetricObjective`][] a name of its `limits`.
     """
 
     metric: str = eqx.field(static=True)
@@ -276,9 +277,117 @@ class SettlingObjective(AbstractObjective):
         return loss, metrics
 
 
+class MetricObjective(AbstractObjective):
+    r"""A weighted sum of convergence times (any signals, any norms), aggregated over a batch,
+    plus penalties on any per-sample metric: the objective of plants whose performance is
+    several error groups and whose limits are several signals (a relative pose: position,
+    attitude, velocity and rate; force and torque).
+
+    For each sample, $T = \sum_k T_k$ over the metric objects of `times` (each summed over
+    its components, e.g. a [`jaxatt.metrics.ConvergenceTime`][] per error group); the loss is
+    `aggregate` of $T$ over the batch plus each [`Penalty`][]'s
+    `weight * mean(max(0, metric - bound)^2)` on a metric of `limits`.
+
+    **Arguments:**
+    - `t1`, `dt`: horizon and step [s]; `save_every`, `sampling`, `solver`, `performance`,
+      `t0` as [`SettlingObjective`][].
+    - `times`: name -> metric object whose value is a time (summed into the objective).
+    - `limits`: name -> metric object the `penalties` bound (e.g. `Peak("force")`).
+    - `penalties`: [`Penalty`][]s on names of `limits`.
+    - `aggregate`: `Mean()` (default), `Quantile(q)`, `CVaR(alpha)`, `WorstCase()`.
+
+    `aux` holds every metric of `times` and `limits` per sample, `objective_time` ($T$),
+    `successful` and `status`. A failed sample (non-finite state, a constraint violated) has
+    `inf` times, so the loss is `inf` and [`tune`][] stops (a failure never lowers the loss).
+    """
+
+    simulation: Simulation
+    times: dict[str, AbstractMetric]
+    limits: dict[str, AbstractMetric]
+    penalties: tuple[Penalty, ...]
+    aggregate: AbstractAggregate
+
+    def __init__(
+        self,
+        t1: float | int,
+        dt: float | int,
+        times: dict[str, AbstractMetric],
+        limits: dict[str, AbstractMetric] | None = None,
+        penalties: tuple[Penalty, ...] = (),
+        aggregate: AbstractAggregate | None = None,
+        save_every: int = 1,
+        *,
+        sampling: AbstractSampling = Continuous(),
+        solver: AbstractFixedStepSolver | dfx.AbstractSolver = RK4(),
+        performance: Performance | None = None,
+        t0: float = 0.0,
+    ):
+        where = "MetricObjective"
+        self.simulation = Simulation(
+            t0,
+            t1,
+            dt,
+            sampling=sampling,
+            solver=solver,
+            save_every=save_every,
+            performance=performance,
+            where=where,
+        )
+        limits = {} if limits is None else dict(limits)
+        for label, group in (("times", times), ("limits", limits)):
+            if not isinstance(group, dict) or not all(
+                isinstance(m, AbstractMetric) for m in group.values()
+            ):
+                raise ValueError(
+                    f"{where}: `{label}` must be a dict name -> jaxatt.metrics metric object, "
+                    f"got {group!r}."
+                )
+        if not times:
+            raise ValueError(f"{where}: `times` must name at least one time metric.")
+        for p in penalties:
+            if not isinstance(p, Penalty) or p.metric not in limits:
+                raise ValueError(
+                    f"{where}: `penalties` must be Penalty objects on one of the `limits` "
+                    f"{sorted(limits)}, got {p!r}."
+                )
+        self.times = dict(times)
+        self.limits = limits
+        self.penalties = tuple(penalties)
+        self.aggregate = Mean() if aggregate is None else aggregate
+
+    def check(self, closed_loop: AbstractClosedLoop, x0s: PyTree) -> None:
+        if not isinstance(closed_loop, AbstractClosedLoop):
+            raise ValueError(
+                "MetricObjective: the tuned module must be a jaxatt closed loop, got "
+                f"{type(closed_loop).__name__}."
+            )
+        closed_loop.check_state(x0s, "inputs", (_batch_size(x0s),))
+
+    def batch_metrics(self, closed_loop: AbstractClosedLoop, x0s: PyTree) -> dict[str, Array]:
+        """Per-sample metrics over a batch (the leading axis of `x0s`)."""
+        sim = self.simulation.with_performance(
+            self.simulation.performance.resolve(_batch_size(x0s))
+        )
+        result = run_batch(closed_loop, x0s, sim, self.times | self.limits)
+        metrics = dict(result.metrics)
+        n = _batch_size(x0s)
+        metrics["objective_time"] = sum(
+            jnp.sum(metrics[name].reshape(n, -1), axis=1) for name in self.times
+        )
+        metrics["successful"] = result.successful
+        metrics["status"] = result.status
+        return metrics
+
+    def __call__(self, closed_loop: AbstractClosedLoop, x0s: PyTree):
+        metrics = self.batch_metrics(closed_loop, x0s)
+        loss = self.aggregate(metrics["objective_time"])
+        for penalty in self.penalties:
+            loss = loss + penalty(metrics)
+        return loss, metrics
+
+
 def _batch_size(tree: PyTree) -> int:
     leaves = jtu.tree_leaves(tree)
     if not leaves or jnp.ndim(leaves[0]) == 0:
         raise ValueError("tune: the batch of initial states must have a leading batch axis.")
     return int(jnp.shape(leaves[0])[0])
-
