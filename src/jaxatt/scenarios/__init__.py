@@ -11,6 +11,7 @@ from . import (
     chen2022_tuning as chen2022_tuning,
     chen2022_two_phase_power as chen2022_two_phase_power,
     demo as demo,
+    duan2024 as duan2024,
     rigid_body_pd as rigid_body_pd,
     yu2022_ftac_mrp as yu2022_ftac_mrp,
 )
@@ -23,6 +24,7 @@ REGISTRY: dict[str, Scenario] = {
         rigid_body_pd.SCENARIO,
         chen2022_two_phase_power.SCENARIO,
         yu2022_ftac_mrp.SCENARIO,
+        duan2024.SCENARIO,
     )
 }
 """Scenarios by CLI name (`jaxatt reproduce NAME`)."""
