@@ -15,6 +15,7 @@ from ._exact import (
     sampled_transition as sampled_transition,
     spectral_radius as spectral_radius,
 )
+from ._expm import expm as expm
 from ._graphs import (
     algebraic_connectivity as algebraic_connectivity,
     check_laplacian as check_laplacian,

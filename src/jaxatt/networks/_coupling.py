@@ -26,10 +26,11 @@ the rate $\lambda_2(L_1)$.
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, ArrayLike, Float
+from jaxtyping import Array, Float
 
-from .._validation import as_float_array, describe, is_traced
+from .._validation import describe, is_traced
 from ._graphs import check_laplacian
+from ._types import MatrixLike, as_float
 
 
 class TwoLayerNetwork(eqx.Module):
@@ -56,19 +57,19 @@ class TwoLayerNetwork(eqx.Module):
 
     def __init__(
         self,
-        intra_laplacian: ArrayLike,
-        inter_laplacian: ArrayLike,
-        rho1: ArrayLike,
-        rho2: ArrayLike,
+        intra_laplacian: MatrixLike,
+        inter_laplacian: MatrixLike,
+        rho1: MatrixLike,
+        rho2: MatrixLike,
         *,
         allow_non_laplacian: bool = False,
     ):
         where = "TwoLayerNetwork"
-        rho1 = as_float_array(rho1, "rho1", where)
+        rho1 = as_float(rho1, "rho1", where)
         if rho1.ndim != 1:
             raise ValueError(f"{where}: `rho1` must be a vector, got shape {rho1.shape}.")
         p = rho1.shape[0]
-        rho2 = as_float_array(rho2, "rho2", where)
+        rho2 = as_float(rho2, "rho2", where)
         if rho2.shape != (p,):
             raise ValueError(
                 f"{where}: `rho2` must have the shape of `rho1`, ({p},), got shape {rho2.shape}."
@@ -77,7 +78,7 @@ class TwoLayerNetwork(eqx.Module):
             if not is_traced(value) and not np.all(np.isfinite(np.asarray(value))):
                 raise ValueError(f"{where}: `{name}` must be finite, got {describe(value)}.")
         if allow_non_laplacian:
-            l1 = as_float_array(intra_laplacian, "intra_laplacian", where)
+            l1 = as_float(intra_laplacian, "intra_laplacian", where)
             if l1.shape != (p, p):
                 raise ValueError(
                     f"{where}: `intra_laplacian` must have shape ({p}, {p}) to match `rho1`, "
@@ -128,8 +129,10 @@ class TwoLayerNetwork(eqx.Module):
 
     def modes(self) -> tuple[Float[Array, " q"], Float[Array, "q q"]]:
         r"""$(\lambda, U)$ with $L_2 = U\,\mathrm{diag}(\lambda)\,U^T$, eigenvalues ascending
-        ($\lambda_1 = 0$ for a Laplacian); differentiable where they are simple."""
-        return jnp.linalg.eigh(self.inter_laplacian)
+        ($\lambda_1 = 0$ for a Laplacian); differentiable where they are simple. Each
+        eigenvector's sign makes its entries' sum non-negative, so $u_1 = \mathbf 1/\sqrt q$."""
+        lam, u = jnp.linalg.eigh(self.inter_laplacian)
+        return lam, u * jnp.where(jnp.sum(u, axis=0, keepdims=True) < 0, -1.0, 1.0)
 
     def modal(self, x: Float[Array, "q p *f"]) -> Float[Array, "q p *f"]:
         r"""Modal coordinates $g = (U^T\otimes I_p)\,x$ (row $k$: mode $k$)."""

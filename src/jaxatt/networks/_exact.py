@@ -11,23 +11,38 @@ $\rho(F(h)) < 1$. For the two-layer consensus loop, mode $k$ of
 mode 1 ($\lambda_1 = 0$) is $e^{-L_1h}$, whose disagreement part (orthogonal to $\mathbf 1$)
 has the radius $e^{-\lambda_2(L_1)h} < 1$ for every $h$.
 
-Everything here is JAX (`jax.scipy.linalg.expm`, `jnp.linalg.eigvals`), hence
+Everything here is JAX ([`expm`][jaxatt.networks.expm], a Padé-13 scaling and squaring, and
+`jnp.linalg.eigvals`), hence
 differentiable in the graph weights and in $h$. [`largest_stable_interval`][] brackets the
 first $h$ where the largest modal radius reaches 1 and bisects to machine precision; its
 derivative comes from the implicit function theorem,
 $\mathrm d h^* = -\,\partial_\theta\rho \,\mathrm d\theta / \partial_h\rho$ at $\rho(h^*) = 1$.
 """
 
+import functools
+
 import equinox as eqx
 import jax
 import jax.lax as lax
 import jax.numpy as jnp
-import jax.scipy.linalg as jsl
 import numpy as np
 from jaxtyping import Array, Float
 
 from .._custom_types import RealScalarLike
 from ._coupling import TwoLayerNetwork
+from ._expm import expm
+
+
+def _jit_in_h(fn):
+    """Compile `fn(network, h)` once per network structure: `h` becomes an array (a Python
+    float would be a static argument of `eqx.filter_jit` and recompile for every value)."""
+    compiled = eqx.filter_jit(fn)
+
+    @functools.wraps(fn)
+    def wrapper(network, h):
+        return compiled(network, jnp.asarray(h, dtype=network.intra_laplacian.dtype))
+
+    return wrapper
 
 
 def sampled_transition(
@@ -37,7 +52,7 @@ def sampled_transition(
     n = a.shape[0]
     top = jnp.concatenate([a, b], axis=1)
     augmented = jnp.concatenate([top, jnp.zeros_like(top)], axis=0) * h
-    e = jsl.expm(augmented)
+    e = expm(augmented)
     return e[:n, :n] + e[:n, n:]
 
 
@@ -46,6 +61,7 @@ def spectral_radius(m: Float[Array, "n n"]) -> Float[Array, ""]:
     return jnp.max(jnp.abs(jnp.linalg.eigvals(m)))
 
 
+@_jit_in_h
 def mode_transitions(network: TwoLayerNetwork, h: RealScalarLike) -> Float[Array, "q p p"]:
     r"""$F_k(h)$ for every mode $k = 1..q$ ($A = -L_1$, $B = -\lambda_k\Delta$)."""
     lam, _ = network.modes()
@@ -54,11 +70,13 @@ def mode_transitions(network: TwoLayerNetwork, h: RealScalarLike) -> Float[Array
     return jax.vmap(lambda lk: sampled_transition(a, -lk * delta, h))(lam)
 
 
-def mode_spectral_radii(network: TwoLayerNetwork, h: RealScalarLike) -> Float[Array, " q-1"]:
+@_jit_in_h
+def mode_spectral_radii(network: TwoLayerNetwork, h: RealScalarLike) -> Float[Array, " modes"]:
     r"""$\rho(F_k(h))$ for the inter-group modes $k = 2..q$ (eigenvalues of $L_2$ ascending)."""
     return jax.vmap(spectral_radius)(mode_transitions(network, h)[1:])
 
 
+@_jit_in_h
 def disagreement_spectral_radius(network: TwoLayerNetwork, h: RealScalarLike) -> Float[Array, ""]:
     r"""The spectral radius of one period on the disagreement subspace: the largest of
     $\rho(F_k(h))$, $k \ge 2$, and $e^{-\lambda_2(L_1)h}$ (mode 1 without its average)."""
@@ -66,12 +84,14 @@ def disagreement_spectral_radius(network: TwoLayerNetwork, h: RealScalarLike) ->
     return jnp.maximum(jnp.max(mode_spectral_radii(network, h)), intra)
 
 
+@_jit_in_h
 def network_transition(network: TwoLayerNetwork, h: RealScalarLike) -> Float[Array, "N N"]:
     r"""$F(h)$ of the whole network, $A = -I_q\otimes L_1$, $B = -L_2\otimes\Delta$, as a
     dense $N\times N$ matrix (small networks; a check of the modal decomposition)."""
     return sampled_transition(-network.kron_intra(), -network.kron_inter(), h)
 
 
+@_jit_in_h
 def decay_rate(network: TwoLayerNetwork, h: RealScalarLike) -> Float[Array, ""]:
     r"""The disagreement's exponential decay rate under periodic sampling,
     $-\ln\rho/h$ [1/s] with $\rho$ = [`disagreement_spectral_radius`][] (negative: growth)."""
@@ -120,6 +140,9 @@ def _h_star_jvp(primals, tangents, *, h_max, grid, iterations):
     return h, tangent
 
 
+_h_star_jit = eqx.filter_jit(_h_star)
+
+
 def largest_stable_interval(
     network: TwoLayerNetwork, *, h_max: float = 5.0, grid: int = 200, iterations: int = 60
 ) -> Float[Array, ""]:
@@ -135,12 +158,13 @@ def largest_stable_interval(
     """
     if not (np.isfinite(h_max) and h_max > 0):
         raise ValueError(f"largest_stable_interval: `h_max` must be positive, got {h_max!r}.")
-    return _h_star(network, h_max=float(h_max), grid=int(grid), iterations=int(iterations))
+    return _h_star_jit(network, h_max=float(h_max), grid=int(grid), iterations=int(iterations))
 
 
+@eqx.filter_jit
 def sampled_response(
-    network: TwoLayerNetwork, x0: Float[Array, "q p"], intervals: Float[Array, " m"]
-) -> Float[Array, "m+1 q p"]:
+    network: TwoLayerNetwork, x0: Float[Array, "q p"], intervals: Float[Array, " intervals"]
+) -> Float[Array, "samples q p"]:
     r"""The exact discretisation: $x(t_0), x(t_1), \dots$ with $t_{i+1} = t_i + h_i$, computed
     mode by mode, $g_k(t_{i+1}) = F_k(h_i)\,g_k(t_i)$ (no integration error; any real
     $h_i > 0$, periodic or not)."""

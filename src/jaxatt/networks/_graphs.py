@@ -16,19 +16,20 @@ from collections.abc import Sequence
 
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, ArrayLike, Float
+from jaxtyping import Array, Float
 
-from .._validation import as_float_array, describe, is_traced
+from .._validation import describe, is_traced
+from ._types import MatrixLike, as_float
 
 
 LAPLACIAN_TOLERANCE = 1e-9
 """Relative tolerance of the Laplacian checks (row sums, symmetry), times 1 + max |L_ij|."""
 
 
-def laplacian_from_adjacency(adjacency: ArrayLike) -> Float[Array, "n n"]:
+def laplacian_from_adjacency(adjacency: MatrixLike) -> Float[Array, "n n"]:
     r"""$L = \mathrm{diag}(A\mathbf 1) - A$ for a weighted adjacency $A$ (any float array,
     differentiable in its entries; the diagonal of $A$ is ignored)."""
-    a = as_float_array(adjacency, "adjacency", "laplacian_from_adjacency")
+    a = as_float(adjacency, "adjacency", "laplacian_from_adjacency")
     if a.ndim != 2 or a.shape[0] != a.shape[1]:
         raise ValueError(
             f"laplacian_from_adjacency: `adjacency` must be a square matrix, got shape {a.shape}."
@@ -47,7 +48,7 @@ def laplacian_from_adjacency(adjacency: ArrayLike) -> Float[Array, "n n"]:
 def laplacian_from_edges(
     n: int,
     edges: Sequence[tuple[int, int]],
-    weights: ArrayLike | None = None,
+    weights: MatrixLike | None = None,
     *,
     directed: bool = False,
 ) -> Float[Array, "n n"]:
@@ -69,7 +70,7 @@ def laplacian_from_edges(
     if weights is None:
         w = jnp.ones(len(pairs), dtype=jnp.result_type(float))
     else:
-        w = as_float_array(weights, "weights", where)
+        w = as_float(weights, "weights", where)
         if w.shape != (len(pairs),):
             raise ValueError(
                 f"{where}: `weights` must have one entry per edge, shape ({len(pairs)},), "
@@ -83,7 +84,7 @@ def laplacian_from_edges(
     return laplacian_from_adjacency(a)
 
 
-def is_connected(laplacian: ArrayLike) -> bool:
+def is_connected(laplacian: MatrixLike) -> bool:
     """Whether the graph of a concrete Laplacian is connected (directed graphs: weakly
     connected, i.e. connected when edge directions are ignored). Host-side."""
     host = np.asarray(laplacian)
@@ -102,7 +103,7 @@ def is_connected(laplacian: ArrayLike) -> bool:
 def check_laplacian(
     where: str,
     name: str,
-    value: ArrayLike,
+    value: MatrixLike,
     *,
     size: int | None = None,
     symmetric: bool = True,
@@ -115,7 +116,7 @@ def check_laplacian(
     entries, symmetric when `symmetric`, connected graph when `connected`. Traced values are
     checked for shape only.
     """
-    arr = as_float_array(value, name, where)
+    arr = as_float(value, name, where)
     if arr.ndim != 2 or arr.shape[0] != arr.shape[1]:
         raise ValueError(f"{where}: `{name}` must be a square matrix, got shape {arr.shape}.")
     if size is not None and arr.shape != (size, size):

@@ -44,7 +44,8 @@ import math
 import warnings
 
 import numpy as np
-from jaxtyping import ArrayLike
+
+from ._types import MatrixLike
 
 
 MARGIN_THRESHOLD = 1e-7
@@ -100,7 +101,7 @@ class LMIResult:
     S: np.ndarray | None
 
 
-def _check_system(where: str, a: ArrayLike, b: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def _check_system(where: str, a: MatrixLike, b: MatrixLike) -> tuple[np.ndarray, np.ndarray]:
     a = np.asarray(a, dtype=float)
     b = np.asarray(b, dtype=float)
     if a.ndim != 2 or a.shape[0] != a.shape[1]:
@@ -130,7 +131,9 @@ def lmi_blocks(a: np.ndarray, b: np.ndarray, form: LMIForm = CORRECTED):
     return eta, e2 - e3, (e1 - e2) if form.e2 else (e1 - e3), e1, e3
 
 
-def lmi_feasibility(a: ArrayLike, b: ArrayLike, tau: float, form: LMIForm = CORRECTED) -> LMIResult:
+def lmi_feasibility(
+    a: MatrixLike, b: MatrixLike, tau: float, form: LMIForm = CORRECTED
+) -> LMIResult:
     """Solve Theorem 1's LMIs for $\\dot g = Ag + Bg(t-\\tau(t))$ at `tau` (maximal margin)."""
     where = "lmi_feasibility"
     a, b = _check_system(where, a, b)
@@ -194,8 +197,8 @@ def lmi_feasibility(a: ArrayLike, b: ArrayLike, tau: float, form: LMIForm = CORR
 
 
 def lmi_tau_max(
-    a: ArrayLike,
-    b: ArrayLike,
+    a: MatrixLike,
+    b: MatrixLike,
     form: LMIForm = CORRECTED,
     *,
     tau_low: float = 1e-3,
@@ -228,7 +231,7 @@ def lmi_tau_max(
     return lo
 
 
-def printed_form_ceiling(intra_laplacian: ArrayLike, delta: ArrayLike, lam: float) -> dict:
+def printed_form_ceiling(intra_laplacian: MatrixLike, delta: MatrixLike, lam: float) -> dict:
     r"""The necessary condition of the printed form: $L_1 - \lambda\Delta$ must be Hurwitz.
 
     Returns its `trace` ($\mathrm{tr}L_1 - \lambda\,\mathrm{tr}\Delta$), its eigenvalues'

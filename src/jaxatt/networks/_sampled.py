@@ -19,10 +19,11 @@ import jax.numpy as jnp
 import jax.random as jr
 import jax.tree_util as jtu
 import numpy as np
-from jaxtyping import Array, ArrayLike, Float, PyTree
+from jaxtyping import Array, Float, PyTree
 
 from .._custom_types import RealScalarLike
-from .._validation import as_float_array, describe
+from .._validation import describe
+from ._types import MatrixLike, as_float
 
 
 class SampleSchedule(eqx.Module):
@@ -41,12 +42,12 @@ class SampleSchedule(eqx.Module):
     intervals: Float[Array, " n"]
     step: float = eqx.field(static=True)
 
-    def __init__(self, intervals: ArrayLike, step: float):
+    def __init__(self, intervals: MatrixLike, step: float):
         where = "SampleSchedule"
         step = float(step)
         if not (math.isfinite(step) and step > 0):
             raise ValueError(f"{where}: `step` must be positive, got step={step!r}.")
-        h = as_float_array(intervals, "intervals", where)
+        h = as_float(intervals, "intervals", where)
         if h.ndim != 1 or h.shape[0] < 1:
             raise ValueError(
                 f"{where}: `intervals` must be a non-empty vector, got shape {h.shape}."

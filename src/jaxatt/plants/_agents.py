@@ -16,9 +16,10 @@ from ._base import AbstractPlant
 
 
 class AgentsState(eqx.Module):
-    """Positions (or any scalar consensus variable) of all agents, shape `(q, p, *f)`."""
+    """Positions (or any consensus variable) of all agents, shape `(q, p, *features)` (with
+    leading batch axes for a batch of states; `SingleIntegratorAgents.check_state` checks)."""
 
-    x: Float[Array, "q p *f"]
+    x: Float[Array, "..."]
 
 
 class SingleIntegratorAgents(AbstractPlant):
@@ -52,10 +53,10 @@ class SingleIntegratorAgents(AbstractPlant):
 
     def signals(self, t, state: AgentsState, reference) -> dict[str, Array]:
         x = state.x
-        mean = jnp.mean(x, axis=(0, 1))
+        mean = jnp.mean(x, axis=(0, 1), keepdims=True)
         return {
             "x": x,
-            "mean": mean,
+            "mean": mean[0, 0],
             "disagreement": x - mean,
             "spread": jnp.max(x, axis=(0, 1)) - jnp.min(x, axis=(0, 1)),
         }
