@@ -208,10 +208,9 @@ def lmi_tau_max(
     """The largest $\\tau$ at which Theorem 1's LMIs are (strictly) feasible, by bisection.
 
     Starts from `[tau_low, tau_high]`; returns 0.0 if infeasible at `tau_low`, and
-    `tau_high` if feasible there (widen the bracket). Feasibility is assumed monotone in
-    $\\tau$ (a solution at $\\tau$ is not automatically one at smaller $\\tau$ for this
-    functional; the bisection's answer is a $\\tau$ certified feasible, within `tol` of a
-    certified infeasible one). Bisection stops when the bracket is narrower than `tol` [s].
+    `tau_high` if feasible there (widen the bracket). Bisection assumes feasibility is
+    monotone in $\tau$ (not guaranteed for this functional); the answer is a $\tau$ certified
+    feasible, within `tol` [s] of one found infeasible.
     """
     where = "lmi_tau_max"
     a, b = _check_system(where, a, b)

@@ -27,8 +27,8 @@ Classic RK4 at dt = 0.01 s (the sampling instants are step boundaries), horizon 
   ([`jaxatt.networks.largest_stable_interval`][]).
 
 **Findings** (measured by `reproduce`; see `metrics.json` and the README): the corrected
-LMI is feasible for the $\lambda = 1$ mode up to $\tau \approx 0.85$ s but for the
-$\lambda = 3$ mode only up to $\tau \approx 0.21$ s, so the paper's "feasible at
+LMI is feasible for the $\lambda = 1$ mode up to $\tau = 0.7346$ s but for the
+$\lambda = 3$ mode only up to $\tau = 0.2323$ s, so the paper's "feasible at
 $\tau = 0.26$ s" does **not** hold for the corrected theorem; the printed theorem is
 infeasible for every $\tau$ (its $L_1 - \lambda_k\Delta$ is not Hurwitz: trace
 $8 - 2\lambda_k > 0$). The loop itself is stable at 0.26 s: $h^* = 0.33833$ s, and the
