@@ -209,7 +209,7 @@ def lmi_tau_max(
 
     Starts from `[tau_low, tau_high]`; returns 0.0 if infeasible at `tau_low`, and
     `tau_high` if feasible there (widen the bracket). Bisection assumes feasibility is
-    monotone in $\tau$ (not guaranteed for this functional); the answer is a $\tau$ certified
+    monotone in $\\tau$ (not guaranteed for this functional); the answer is a $\\tau$ certified
     feasible, within `tol` [s] of one found infeasible.
     """
     where = "lmi_tau_max"
