@@ -26,8 +26,19 @@ from jaxatt.controllers import (
     QuaternionPD,
     RateConstrainedFiniteTimeMRP,
 )
-from jaxatt.plants import MRPState, QuaternionState, RigidBodyMRP, RigidBodyQuaternion, Sinusoid
-from jaxatt.scenarios import chen2022_two_phase_power as chen, yu2022_ftac_mrp as yu
+from jaxatt.plants import (
+    AgentsState,
+    MRPState,
+    QuaternionState,
+    RigidBodyMRP,
+    RigidBodyQuaternion,
+    Sinusoid,
+)
+from jaxatt.scenarios import (
+    chen2022_two_phase_power as chen,
+    duan2024 as duan,
+    yu2022_ftac_mrp as yu,
+)
 from jaxatt.simulation import ClosedLoop, Euler, FirstOrderLag, Saturation
 
 from . import standins
@@ -107,6 +118,11 @@ CASES = {
         ),
         _quaternions,
         "controller.torque.amplitude",
+    ),
+    "two-layer consensus, sampled inter-layer link (Duan 2024)": (
+        lambda: duan.build(tau=0.03, dt=DT),
+        lambda: AgentsState(jr.normal(jr.key(5), (3, 3, 4))),
+        "controller.network.rho1",
     ),
     "stand-in: point mass PD": (
         lambda: ClosedLoop(standins.PointMass(2.0), standins.TranslationPD(4.0, 3.0)),

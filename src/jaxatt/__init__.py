@@ -19,6 +19,7 @@ from . import (
     controllers as controllers,
     metrics as metrics,
     montecarlo as montecarlo,
+    networks as networks,
     numerics as numerics,
     observers as observers,
     plants as plants,

@@ -1,6 +1,7 @@
 """Control laws. Paper variants are instances of these classes, never copies."""
 
 from ._base import AbstractController as AbstractController
+from ._consensus import TwoLayerConsensus as TwoLayerConsensus
 from ._finite_time import (
     FiniteTimeMRP as FiniteTimeMRP,
     RateBarrierState as RateBarrierState,

@@ -11,6 +11,7 @@ from ..signals import (
     Sinusoid as Sinusoid,
     Sum as Sum,
 )
+from ._agents import AgentsState as AgentsState, SingleIntegratorAgents as SingleIntegratorAgents
 from ._base import AbstractPlant as AbstractPlant
 from ._relative_pose import (
     POSE_GROUPS as POSE_GROUPS,

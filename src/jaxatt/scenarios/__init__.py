@@ -11,6 +11,7 @@ from . import (
     chen2022_tuning as chen2022_tuning,
     chen2022_two_phase_power as chen2022_two_phase_power,
     demo as demo,
+    duan2024 as duan2024,
     rigid_body_pd as rigid_body_pd,
     yu2022_ftac_mrp as yu2022_ftac_mrp,
     zhang2021_hover as zhang2021_hover,
@@ -26,6 +27,7 @@ REGISTRY: dict[str, Scenario] = {
         chen2022_two_phase_power.SCENARIO,
         yu2022_ftac_mrp.SCENARIO,
         zhang2021_hover.SCENARIO,
+        duan2024.SCENARIO,
     )
 }
 """Scenarios by CLI name (`jaxatt reproduce NAME`)."""
