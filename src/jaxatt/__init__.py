@@ -2,7 +2,8 @@
 
 The top level exports the verbs and containers; components live in sub-packages:
 `jaxatt.numerics`, `jaxatt.rotations`, `jaxatt.signals`, `jaxatt.references`,
-`jaxatt.plants`, `jaxatt.sliding`, `jaxatt.reaching`, `jaxatt.controllers`,
+`jaxatt.orbits`, `jaxatt.plants`, `jaxatt.sliding`, `jaxatt.reaching`, `jaxatt.performance`,
+`jaxatt.networks`, `jaxatt.controllers`,
 `jaxatt.observers`, `jaxatt.simulation` (the closed-loop contract, actuators, solvers),
 `jaxatt.metrics`, `jaxatt.montecarlo`. `jaxatt.tune` (optax), `jaxatt.plot` (matplotlib) and
 the applications in `jaxatt.scenarios` load on first use: `import jaxatt` imports the core
@@ -22,6 +23,8 @@ from . import (
     networks as networks,
     numerics as numerics,
     observers as observers,
+    orbits as orbits,
+    performance as performance,
     plants as plants,
     reaching as reaching,
     references as references,
