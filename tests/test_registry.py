@@ -38,6 +38,8 @@ from jaxatt.scenarios import (
     chen2022_two_phase_power as chen,
     duan2024 as duan,
     yu2022_ftac_mrp as yu,
+    zhang2021_hover as zhang,
+    zhang2021_tuning as zhang_tuning,
 )
 from jaxatt.simulation import ClosedLoop, Euler, FirstOrderLag, Saturation
 
@@ -123,6 +125,11 @@ CASES = {
         lambda: duan.build(tau=0.03, dt=DT),
         lambda: AgentsState(jr.normal(jr.key(5), (3, 3, 4))),
         "controller.network.rho1",
+    ),
+    "relative pose, finite-time prescribed performance (Zhang 2021)": (
+        lambda: zhang.build("finite_time_ppf"),
+        lambda: zhang_tuning.initial_states(jr.key(6), 3),
+        "controller.envelope.exponent",
     ),
     "stand-in: point mass PD": (
         lambda: ClosedLoop(standins.PointMass(2.0), standins.TranslationPD(4.0, 3.0)),

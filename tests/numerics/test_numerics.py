@@ -133,3 +133,22 @@ def test_nonfinite_input_is_never_hidden_as_zero():
     assert np.isnan(overshoot(jnp.array([[jnp.nan], [0.5]]))[0])
     ts = jnp.linspace(0.0, 1.0, 11)
     assert np.isnan(soft_settling_time(ts, jnp.full(11, jnp.nan), 1e-2))
+
+
+def test_spectral_norm_matches_the_svd_and_has_finite_gradients():
+    import jax
+
+    from jaxatt.numerics import spectral_norm
+
+    rng = np.random.default_rng(3)
+    for shape in ((6, 6), (3, 5), (5, 3)):
+        a = jnp.asarray(rng.normal(size=shape))
+        np.testing.assert_allclose(spectral_norm(a), np.linalg.norm(np.asarray(a), 2), rtol=1e-13)
+        u, s, vh = np.linalg.svd(np.asarray(a))
+        np.testing.assert_allclose(jax.grad(spectral_norm)(a), np.outer(u[:, 0], vh[0]), atol=1e-12)
+    # blkdiag(I/m, J^-1) has a repeated singular value (1/m, three times): finite gradient
+    c_inv = jnp.diag(jnp.array([0.01, 0.01, 0.01, 1 / 14, 1 / 15, 1 / 17]))
+    grad = jax.grad(spectral_norm)(c_inv)
+    assert np.all(np.isfinite(grad)) and grad[3, 3] == pytest.approx(1.0)
+    assert float(spectral_norm(jnp.zeros((3, 3)))) == 0.0
+    assert np.all(jax.grad(spectral_norm)(jnp.zeros((3, 3))) == 0.0)

@@ -10,6 +10,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 
 from .._custom_types import RealScalarLike
 from .._validation import check_gain_shape, check_nonnegative, check_positive
+from ..numerics import spectral_norm
 from ..performance import AbstractPerformance, envelope_margin, transform_error
 from ..plants import RelativePoseModel, RelativePoseState
 from ..reaching import AbstractReachingLaw
@@ -160,7 +161,7 @@ class PoseSlidingMode(AbstractController):
         b = jnp.concatenate([force, torque])
         c_inv = self.model.inverse_inertia()
         gain = beta2[:, None] * c_inv  # beta2 C^{-1}
-        robust = jnp.linalg.norm(gain, 2) * self.disturbance_bound
+        robust = spectral_norm(gain) * self.disturbance_bound
         law = self.reaching_law
         inner = (
             -self.surface_gain * kappa1_dot

@@ -4,7 +4,7 @@ Every power, norm, sign and inverse cosine used by jaxatt goes through these hel
 gradients through a closed loop are finite wherever the mathematics allows (STYLE rule 7).
 """
 
-from ._linalg import det3 as det3, inv3 as inv3, solve3 as solve3
+from ._linalg import det3 as det3, inv3 as inv3, solve3 as solve3, spectral_norm as spectral_norm
 from ._norm import safe_norm as safe_norm, safe_normalize as safe_normalize
 from ._power import abs_pow as abs_pow, sig_pow as sig_pow
 from ._switching import (
