@@ -33,6 +33,11 @@ REGISTRY: dict[str, Scenario] = {
 """Scenarios by CLI name (`jaxatt reproduce NAME`)."""
 
 TUNING: dict[str, TuningProblem] = {
-    problem.name: problem for problem in (chen2022_tuning.PROBLEM, zhang2021_tuning.PROBLEM)
+    problem.name: problem
+    for problem in (
+        chen2022_tuning.PROBLEM,
+        zhang2021_tuning.PROBLEM,
+        zhang2021_tuning.FINITE_TIME_PROBLEM,
+    )
 }
 """Tuning problems by CLI name (`jaxatt tune NAME`)."""

@@ -32,6 +32,7 @@ saved every 1 s. The held-out evaluation runs the same; the reproduction's dt = 
 the same settling times to within the save spacing (checked in the notebook).
 """
 
+import functools
 import json
 import pathlib
 
@@ -214,6 +215,11 @@ def run(
 
 PROBLEM = TuningProblem(
     name="zhang2021",
-    title="Autodiff tuning of Zhang 2021's prescribed-performance rates and surface gains",
-    run=run,
+    title="Autodiff tuning of Zhang 2021's PPC: exponential envelope rates and surface gains",
+    run=functools.partial(run, problem="ppc"),
+)
+FINITE_TIME_PROBLEM = TuningProblem(
+    name="zhang2021-finite-time",
+    title="Autodiff tuning of Zhang 2021's finite-time PF: horizons T_i, exponents, surface gains",
+    run=functools.partial(run, problem="finite_time_ppf"),
 )
