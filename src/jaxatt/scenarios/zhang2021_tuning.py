@@ -213,6 +213,31 @@ def run(
     return report
 
 
+RECORDED = pathlib.Path(__file__).parent / "results"
+"""Where the reports of the by-hand runs are kept (`zhang2021_<problem>.json`)."""
+
+
+def recorded(problem: str = "ppc") -> dict:
+    """The `tuning.json` of the recorded by-hand run of `problem` (see README, "Zhang et al.
+    (2021)": `jaxatt tune zhang2021 --samples 16 --steps 30 --validation-samples 32`, and the
+    same with `zhang2021-finite-time`)."""
+    if problem not in PROBLEMS:
+        raise ValueError(f"zhang2021 tuning: `problem` must be one of {PROBLEMS}, got {problem!r}.")
+    return json.loads((RECORDED / f"zhang2021_{problem}.json").read_text())
+
+
+def tuned_loop(problem: str = "ppc", gains: dict | None = None) -> ClosedLoop:
+    """The template of `problem` with `gains` (default: the recorded run's tuned gains)."""
+    gains = recorded(problem)["gains_after"] if gains is None else gains
+    loop = template(problem)
+    for name, parameter in parameters(problem).items():
+        old = parameter.where(loop)
+        loop = eqx.tree_at(
+            lambda m, p=parameter: p.where(m), loop, jnp.asarray(gains[name], dtype=old.dtype)
+        )
+    return loop
+
+
 PROBLEM = TuningProblem(
     name="zhang2021",
     title="Autodiff tuning of Zhang 2021's PPC: exponential envelope rates and surface gains",
