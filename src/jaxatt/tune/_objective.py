@@ -118,24 +118,35 @@ SAMPLE_METRICS = (
 
 
 class Penalty(eqx.Module):
-    r"""`weight * mean(max(0, metric - bound)^2)` over the batch for a per-sample metric.
+    r"""`weight * aggregate(max(0, metric - bound)^2)` over the batch for a per-sample metric.
 
     `metric` is a key of the objective's per-sample metrics: for a [`SettlingObjective`][]
     `"peak_torque"`, `"peak_command"`, `"effort"` or `"chattering"`; for a
-    [`MetricObjective`][] a name of its `limits`.
+    [`MetricObjective`][] a name of its `limits`. `aggregate` is `Mean()` by default (a soft
+    limit: a few samples may exceed the bound if the rest gain from it); `WorstCase()`
+    penalises the worst sample, for a bound every sample must respect.
     """
 
     metric: str = eqx.field(static=True)
     bound: Float[Array, ""]
     weight: Float[Array, ""]
+    aggregate: AbstractAggregate
 
-    def __init__(self, metric: str, bound: float | int, weight: float | int = 1.0):
+    def __init__(
+        self,
+        metric: str,
+        bound: float | int,
+        weight: float | int = 1.0,
+        aggregate: AbstractAggregate | None = None,
+    ):
         self.metric = metric
         self.bound = check_nonnegative("Penalty", "bound", bound)
         self.weight = check_positive("Penalty", "weight", weight)
+        self.aggregate = Mean() if aggregate is None else aggregate
 
     def __call__(self, metrics: dict[str, Array]) -> Float[Array, ""]:
-        return self.weight * jnp.mean(jax.nn.relu(metrics[self.metric] - self.bound) ** 2)
+        excess = jax.nn.relu(metrics[self.metric] - self.bound) ** 2
+        return self.weight * self.aggregate(excess)
 
 
 class AbstractObjective(eqx.Module):
