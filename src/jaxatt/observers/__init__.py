@@ -10,3 +10,7 @@ from ._super_twisting import (
     SuperTwistingState as SuperTwistingState,
     super_twisting_gain_condition as super_twisting_gain_condition,
 )
+from ._integral_sliding_mode import (
+    IntegralSlidingModeObserver as IntegralSlidingModeObserver,
+    IntegralSlidingModeState as IntegralSlidingModeState,
+)

@@ -19,3 +19,17 @@ from ._rigid_body import (
     RigidBodyMRP as RigidBodyMRP,
     RigidBodyQuaternion as RigidBodyQuaternion,
 )
+from ._beam import (
+    BeamModes as BeamModes,
+    CantileverBeam as CantileverBeam,
+    cantilever_modes as cantilever_modes,
+    cantilever_roots as cantilever_roots,
+    mode_curvature as mode_curvature,
+    mode_shape as mode_shape,
+)
+from ._flexible_slosh import (
+    FlexibleSloshSpacecraft as FlexibleSloshSpacecraft,
+    FlexibleSloshState as FlexibleSloshState,
+    ModalAppendage as ModalAppendage,
+    SloshPendulum as SloshPendulum,
+)
