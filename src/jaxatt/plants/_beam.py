@@ -142,7 +142,9 @@ class BeamModes(eqx.Module):
     literal_stiffness: Float[Array, " N"]
 
 
-def mode_shape(beam: CantileverBeam, beta: Float[ArrayLike, ""], y: Float[ArrayLike, "..."]):
+def mode_shape(
+    beam: CantileverBeam, beta: Float[ArrayLike, "..."], y: Float[ArrayLike, "..."]
+) -> Float[Array, "..."]:
     r"""$\varphi(y)$ for the root $\beta$, evaluated stably.
 
     $\cosh x - \sigma\sinh x = \tfrac{1 - \sigma}{2}e^x + \tfrac{1 + \sigma}{2}e^{-x}$, with
@@ -163,7 +165,9 @@ def mode_shape(beam: CantileverBeam, beta: Float[ArrayLike, ""], y: Float[ArrayL
     )
 
 
-def mode_curvature(beam: CantileverBeam, beta: Float[ArrayLike, ""], y: Float[ArrayLike, "..."]):
+def mode_curvature(
+    beam: CantileverBeam, beta: Float[ArrayLike, "..."], y: Float[ArrayLike, "..."]
+) -> Float[Array, "..."]:
     r"""$\varphi''(y) = \beta^2(\cosh x + \cos x - \sigma(\sinh x + \sin x))$, evaluated stably."""
     beta = jnp.asarray(beta)
     x = beta * jnp.asarray(y)
@@ -193,6 +197,7 @@ def cantilever_modes(
     shapes = mode_shape(beam, beta[:, None], y[None, :])
     curvatures = mode_curvature(beam, beta[:, None], y[None, :])
     rho_a = beam.mass_per_length
+    w, y = w[None, :], y[None, :]
     normalization = 1 / jnp.sqrt(rho_a * jnp.sum(w * shapes**2, axis=1))
     coupling = -normalization * rho_a * jnp.sum(w * shapes * (beam.root_offset + y), axis=1)
     curvature_integral = jnp.sum(w * curvatures**2, axis=1)

@@ -79,6 +79,11 @@ from ._beam import CantileverBeam, cantilever_modes
 from ._rigid_body import QuaternionState, _attitude_metrics, _attitude_reference, _positive_definite
 
 
+def _array(value):
+    """Lists and tuples become NumPy arrays (the checks take array-likes)."""
+    return np.asarray(value, dtype=float) if isinstance(value, (list, tuple)) else value
+
+
 class SloshPendulum(eqx.Module):
     r"""Equivalent spherical-pendulum slosh model, Shi & Song (2024) eq. (4).
 
@@ -102,6 +107,7 @@ class SloshPendulum(eqx.Module):
 
     def __init__(self, mass, length, gravity, suspension, damping):
         where = "SloshPendulum"
+        suspension, damping = _array(suspension), _array(damping)
         self.mass = check_positive(where, "mass", mass)
         self.length = check_positive(where, "length", length)
         self.gravity = check_positive(where, "gravity", gravity)
@@ -168,6 +174,7 @@ class ModalAppendage(eqx.Module):
 
     def __init__(self, frequencies, damping, coupling):
         where = "ModalAppendage"
+        frequencies, damping, coupling = _array(frequencies), _array(damping), _array(coupling)
         self.frequencies = check_positive(where, "frequencies", frequencies)
         if self.frequencies.ndim != 1:
             raise ValueError(
@@ -189,7 +196,7 @@ class ModalAppendage(eqx.Module):
     def from_beam(
         cls,
         beam: CantileverBeam,
-        damping: Float[ArrayLike, " N"],
+        damping: Float[ArrayLike, " N"] | list[float] | tuple[float, ...],
         *,
         axis: int = 2,
     ) -> "ModalAppendage":

@@ -12,6 +12,7 @@ from . import (
     chen2022_two_phase_power as chen2022_two_phase_power,
     demo as demo,
     rigid_body_pd as rigid_body_pd,
+    shi2024 as shi2024,
     yu2022_ftac_mrp as yu2022_ftac_mrp,
 )
 from ._protocol import Scenario as Scenario, TuningProblem as TuningProblem
@@ -23,6 +24,7 @@ REGISTRY: dict[str, Scenario] = {
         rigid_body_pd.SCENARIO,
         chen2022_two_phase_power.SCENARIO,
         yu2022_ftac_mrp.SCENARIO,
+        shi2024.SCENARIO,
     )
 }
 """Scenarios by CLI name (`jaxatt reproduce NAME`)."""

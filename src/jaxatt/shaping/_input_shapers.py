@@ -34,16 +34,20 @@ class AbstractImpulseShaper(AbstractShaper):
     def step_response(self, t: RealScalarLike | Float[ArrayLike, "..."]) -> Float[Array, "..."]:
         """A staircase: $\\sum_j A_j H(t - t_j)$ with $H(0) = 1$."""
         amplitudes, times = self.impulses()
-        t = jnp.asarray(t)
-        return jnp.sum(amplitudes * (t[..., None] >= times), axis=-1)
+        t = jnp.asarray(t)[..., None]
+        shape = (1,) * (t.ndim - 1) + (-1,)
+        amplitudes, times = amplitudes.reshape(shape), times.reshape(shape)
+        return jnp.sum(amplitudes * (t >= times), axis=-1)
 
     def residual_vibration(self, frequency, damping) -> Float[Array, "..."]:
         amplitudes, times = self.impulses()
-        frequency = jnp.asarray(frequency)[..., None]
-        damping = jnp.asarray(damping)[..., None]
+        frequency, damping = jnp.broadcast_arrays(jnp.asarray(frequency), jnp.asarray(damping))
+        frequency, damping = frequency[..., None], damping[..., None]
+        shape = (1,) * (frequency.ndim - 1) + (-1,)
+        amplitudes, times = amplitudes.reshape(shape), times.reshape(shape)
         decay = damping * frequency
         damped = frequency * jnp.sqrt(1 - damping**2)
-        weight = jnp.exp(decay * (times - times[-1]))
+        weight = jnp.exp(decay * (times - times[..., -1:]))
         c = jnp.sum(amplitudes * weight * jnp.cos(damped * times), axis=-1)
         s = jnp.sum(amplitudes * weight * jnp.sin(damped * times), axis=-1)
         return jnp.sqrt(c**2 + s**2)
