@@ -31,7 +31,9 @@ def loop():
         J, disturbance=Sinusoid(jnp.array([0.04, 0.06, 0.04]), jnp.array([0.1, 0.2, 0.3]), 0.0, 0.5)
     )
     law = ObserverCompensated(TimeVaryingSlidingMode(10.0, 0.4))
-    return ClosedLoop(plant, law, ConstantAttitude(), observer=IntegralSlidingModeObserver(J, plant))
+    return ClosedLoop(
+        plant, law, ConstantAttitude(), observer=IntegralSlidingModeObserver(J, plant)
+    )
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +43,9 @@ def runs():
     out = {}
     for dt in (4e-3, 2e-3):
         traj = simulate(loop(), x0, 0.0, 12.0, dt=dt, save_every=round(0.04 / dt))
-        error = np.max(np.abs(np.asarray(traj.signals["d_hat"] - traj.signals["disturbance"])), axis=1)
+        error = np.max(
+            np.abs(np.asarray(traj.signals["d_hat"] - traj.signals["disturbance"])), axis=1
+        )
         out[dt] = (np.asarray(traj.ts), error, traj)
     return out
 

@@ -56,16 +56,18 @@ def test_modal_data_against_closed_forms_and_spec():
     paper's numbers from SPEC (1.0087, 6.321, 17.70 rad/s; b = -21.54, -5.39, -2.55)."""
     beam = paper_beam()
     modes = cantilever_modes(beam)
-    l, rho_a = 3.0, 31.5
-    np.testing.assert_allclose(modes.normalization, 1 / np.sqrt(rho_a * l), rtol=1e-12)
+    length, rho_a = 3.0, 31.5
+    np.testing.assert_allclose(modes.normalization, 1 / np.sqrt(rho_a * length), rtol=1e-12)
     x, w = np.polynomial.legendre.leggauss(80)
-    y = 0.5 * l * (x + 1)
+    y = 0.5 * length * (x + 1)
     for beta in np.asarray(modes.beta):
-        big = beta * l
+        big = beta * length
         sigma = (np.cosh(big) + np.cos(big)) / (np.sinh(big) + np.sin(big))
-        naive = np.cosh(beta * y) - np.cos(beta * y) - sigma * (np.sinh(beta * y) - np.sin(beta * y))
+        naive = (
+            np.cosh(beta * y) - np.cos(beta * y) - sigma * (np.sinh(beta * y) - np.sin(beta * y))
+        )
         np.testing.assert_allclose(mode_shape(beam, beta, y), naive, atol=1e-9)
-        integral = 0.5 * l * np.sum(w * np.asarray(mode_shape(beam, beta, y)))
+        integral = 0.5 * length * np.sum(w * np.asarray(mode_shape(beam, beta, y)))
         np.testing.assert_allclose(integral, 2 * sigma / beta, rtol=1e-12)
     # b_i = -u rho A (r0 int phi + int y phi), with int phi known in closed form.
     np.testing.assert_allclose(modes.frequencies, [1.0087, 6.3214, 17.700], rtol=1e-4)
@@ -127,8 +129,18 @@ def _plant(damped: bool):
 
 
 def _state(plant):
-    x = plant.rest_state(jnp.array([0.9, 0.3, -0.2, -0.25]) / jnp.linalg.norm(jnp.array([0.9, 0.3, -0.2, -0.25])), jnp.array([0.02, -0.03, 0.05]))
-    return type(x)(x.q, x.omega, jnp.array([1e-3, -2e-3]), x.psi + 0.01, jnp.array([0.1, -0.02, 0.003]), x.zeta - 0.05)
+    x = plant.rest_state(
+        jnp.array([0.9, 0.3, -0.2, -0.25]) / jnp.linalg.norm(jnp.array([0.9, 0.3, -0.2, -0.25])),
+        jnp.array([0.02, -0.03, 0.05]),
+    )
+    return type(x)(
+        x.q,
+        x.omega,
+        jnp.array([1e-3, -2e-3]),
+        x.psi + 0.01,
+        jnp.array([0.1, -0.02, 0.003]),
+        x.zeta - 0.05,
+    )
 
 
 def test_second_order_equations_hold_along_the_flow():
@@ -171,7 +183,11 @@ def test_energy_is_conserved_without_damping_and_dissipated_with_it():
         eta_dot, _, n_dot, _ = plant.internal_rates(x)
         xi = jnp.concatenate([x.omega, eta_dot, n_dot])
         kinetic = 0.5 * xi @ plant.mass_matrix() @ xi
-        return kinetic + 0.5 * x.eta @ plant.slosh.stiffness_matrix() @ x.eta + 0.5 * x.n @ plant.appendage.stiffness_matrix() @ x.n
+        return (
+            kinetic
+            + 0.5 * x.eta @ plant.slosh.stiffness_matrix() @ x.eta
+            + 0.5 * x.n @ plant.appendage.stiffness_matrix() @ x.n
+        )
 
     tau = jnp.array([0.3, -0.1, 0.2])
     for damped in (False, True):

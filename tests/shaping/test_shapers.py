@@ -87,7 +87,10 @@ def test_residual_vibration_sweep_against_quadrature_and_shapers():
         np.testing.assert_allclose(float(jnp.sum(amplitudes)), 1.0, rtol=1e-15)
         assert float(shaper.residual_vibration(1.0, 0.01)) < 1e-12
     near = jnp.asarray([0.9, 1.1])
-    assert np.all(np.asarray(zvd.residual_vibration(near, 0.01)) < np.asarray(zv.residual_vibration(near, 0.01)))
+    assert np.all(
+        np.asarray(zvd.residual_vibration(near, 0.01))
+        < np.asarray(zv.residual_vibration(near, 0.01))
+    )
     slope = jax.grad(lambda w: zvd.residual_vibration(w, 0.01) ** 2)(1.0)
     assert abs(float(slope)) < 1e-12
     assert float(s.residual_vibration(3.0, 0.01)) < 0.02 < float(zv.residual_vibration(3.0, 0.01))
@@ -100,7 +103,9 @@ def _mode_response(shaper, frequency, damping, t_end, dt=2e-3):
 
     def f(t, y):
         x, v = y
-        return jnp.stack([v, frequency**2 * (shaper.step_response(t) - x) - 2 * damping * frequency * v])
+        return jnp.stack(
+            [v, frequency**2 * (shaper.step_response(t) - x) - 2 * damping * frequency * v]
+        )
 
     def step(y, t):
         k1 = f(t, y)

@@ -12,13 +12,6 @@ from ..signals import (
     Sum as Sum,
 )
 from ._base import AbstractPlant as AbstractPlant
-from ._rigid_body import (
-    MRPState as MRPState,
-    QuaternionState as QuaternionState,
-    RigidBody as RigidBody,
-    RigidBodyMRP as RigidBodyMRP,
-    RigidBodyQuaternion as RigidBodyQuaternion,
-)
 from ._beam import (
     BeamModes as BeamModes,
     CantileverBeam as CantileverBeam,
@@ -32,4 +25,11 @@ from ._flexible_slosh import (
     FlexibleSloshState as FlexibleSloshState,
     ModalAppendage as ModalAppendage,
     SloshPendulum as SloshPendulum,
+)
+from ._rigid_body import (
+    MRPState as MRPState,
+    QuaternionState as QuaternionState,
+    RigidBody as RigidBody,
+    RigidBodyMRP as RigidBodyMRP,
+    RigidBodyQuaternion as RigidBodyQuaternion,
 )

@@ -15,8 +15,8 @@ $$\dot\zeta = -C_s\zeta - K_s n + C_sB_s\omega,\qquad \dot n = \zeta - B_s\omega
 The hub equation is the paper's (7), $J\dot\omega = -\omega^\times J\omega + \bar T_d + \tau$,
 with its lumped disturbance written out:
 
-$$\bar T_d = T_d - \omega^\times(\Delta J\omega + B_s^T\dot n + \delta^T\dot\eta) - \Delta J\dot\omega
-+ \delta^T(A^{-1}C_f\psi + A^{-1}K_f\eta - A^{-1}C_fA^{-1}\delta\omega)
+$$\bar T_d = T_d - \omega^\times(\Delta J\omega + B_s^T\dot n + \delta^T\dot\eta)
+- \Delta J\dot\omega + \delta^T(A^{-1}C_f\psi + A^{-1}K_f\eta - A^{-1}C_fA^{-1}\delta\omega)
 + B_s^T(C_s\zeta + K_s n - C_sB_s\omega)$$
 
 (`δη'` as printed is `δ^T η'`; the pendulum's $m_pD$ and $F(\omega)\dot\eta$ terms are dropped
@@ -27,7 +27,8 @@ it.
 $J = J_{\mathrm{tot}} - B_s^TB_s - \delta^TA^{-1}\delta$, where $J_{\mathrm{tot}}$ is the
 inertia in the coupled mass matrix
 
-$$M = \begin{bmatrix} J_{\mathrm{tot}} & \delta^T & B_s^T\\ \delta & A & 0\\ B_s & 0 & I\end{bmatrix}
+$$M = \begin{bmatrix} J_{\mathrm{tot}} & \delta^T & B_s^T\\ \delta & A & 0\\
+B_s & 0 & I\end{bmatrix}
 \succ 0 \iff J \succ 0 \quad(\text{Schur complement}).$$
 
 SPEC decides that the printed $J$ is this effective $J$ of (7) (the default); its implied total
@@ -390,10 +391,7 @@ class FlexibleSloshSpacecraft(AbstractPlant):
         omega = state.omega
         momentum = inertia @ omega + b.T @ n_dot + delta.T @ eta_dot
         return (
-            -jnp.cross(omega, momentum)
-            - delta.T @ psi_dot
-            - b.T @ zeta_dot
-            + self.disturbance(t)
+            -jnp.cross(omega, momentum) - delta.T @ psi_dot - b.T @ zeta_dot + self.disturbance(t)
         )
 
     def angular_acceleration(self, t: RealScalarLike, state: FlexibleSloshState, torque: Vec3):

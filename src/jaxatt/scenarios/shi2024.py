@@ -38,13 +38,12 @@ simulated $\dot\omega$. Settling times are last exits of $\max_i|\cdot_i|$, wher
 error is the vector part of $\bar q_c^{-1}\otimes q$ against the **final** command (so the
 smoothed cases are timed on the manoeuvre, not on tracking a moving command).
 
-`short=True` (CI): dt = 5e-3 s over 150 s, no observer floor sweep.
+`short=True` (CI): dt = 1e-2 s over 150 s, only `SHORT_CASES`, no observer floor sweep.
 """
 
 import json
 import pathlib
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -106,7 +105,8 @@ CASES = (
 HORIZON = 250.0
 DT = 1e-3
 SHORT_HORIZON = 150.0
-SHORT_DT = 5e-3
+SHORT_DT = 1e-2
+SHORT_CASES = ("case1_no_smoother", "case1_smoother", "case2")
 SAVE_PERIOD = 0.1
 OBSERVER_WINDOW = 10.0
 """`observer_error_final` is the largest $|\\hat T_{d,i} - \\bar T_{d,i}|$ over the last 10 s."""
@@ -318,7 +318,9 @@ def model_data() -> dict:
         "beam_coupling_b": _to_json(modes.coupling),
         "beam_literal_stiffness_sqrt": _to_json(jnp.sqrt(modes.literal_stiffness)),
         "slosh_frequency": float(the_plant.slosh.frequency),
-        "mass_matrix_min_eigenvalue": float(np.linalg.eigvalsh(np.asarray(the_plant.mass_matrix()))[0]),
+        "mass_matrix_min_eigenvalue": float(
+            np.linalg.eigvalsh(np.asarray(the_plant.mass_matrix()))[0]
+        ),
         "implied_total_inertia": _to_json(the_plant.total_inertia()),
         "literal_total_reading_min_eigenvalue": float(
             np.linalg.eigvalsh(np.asarray(literal_total))[0]
@@ -342,11 +344,12 @@ def claims(metrics: dict) -> dict:
         ("case1_smoother", "case1_smoother_hz", "case1_smoother_beam"),
         key=lambda c: metrics[c]["peak_modal_n1"] if c in metrics else np.inf,
     )
+    if best not in metrics:
+        best = None
     out = {
         "case1_converges_within_60s_no_smoother": _time(c1["attitude_settle_time_1e-2"]) <= 60
         and _time(c1["rate_settle_time_1e-3"]) <= 60,
-        "case1_converges_within_60s_smoother_literal": _time(c1s["attitude_settle_time_1e-2"])
-        <= 60
+        "case1_converges_within_60s_smoother_literal": _time(c1s["attitude_settle_time_1e-2"]) <= 60
         and _time(c1s["rate_settle_time_1e-3"]) <= 60,
         "smoother_reduces_overshoot_literal": max(c1s["overshoot"]) < max(c1["overshoot"]),
         "smoother_halves_slosh_literal": c1s["peak_slosh"] < 0.5 * c1["peak_slosh"],
@@ -399,7 +402,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
     out = pathlib.Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     horizon, dt = (SHORT_HORIZON, SHORT_DT) if short else (HORIZON, DT)
-    runs = run(horizon=horizon, dt=dt, progress=progress)
+    runs = run(horizon=horizon, dt=dt, cases=SHORT_CASES if short else CASES, progress=progress)
     metrics: dict = {
         "settings": {
             "horizon": horizon,
@@ -457,7 +460,9 @@ def _write_figures(out: pathlib.Path, runs: dict, floor: dict | None) -> None:
         fig.savefig(out / name)
         plt.close(fig)
 
-    main = ("case1_no_smoother", "case1_smoother", "case1_smoother_beam")
+    main = tuple(
+        c for c in ("case1_no_smoother", "case1_smoother", "case1_smoother_beam") if c in runs
+    )
     with plot.style():
         loop, traj = runs["case1_no_smoother"]
         fig, ax = plt.subplots(figsize=(7, 3.2), layout="constrained")
@@ -476,21 +481,21 @@ def _write_figures(out: pathlib.Path, runs: dict, floor: dict | None) -> None:
             lambda lp, tr: tr.plant_states.omega,
             r"$\omega_{i}$ [rad/s]",
             "Fig. 3 equivalent: body rates",
-            (*main, "case2"),
+            (*main, "case2"),  # noqa: RUF005
         )
         per_axis(
             "fig4_attitude.png",
             lambda lp, tr: attitude_error_vector(tr),
             r"$q_{i}$",
             "Fig. 4 equivalent: attitude (vector part, final command)",
-            (*main, "case2"),
+            (*main, "case2"),  # noqa: RUF005
         )
         per_axis(
             "fig5_torque.png",
             lambda lp, tr: tr.signals["u"],
             r"$\tau_{i}$ [N m]",
             "Fig. 5 equivalent: control torque",
-            (*main, "case2"),
+            (*main, "case2"),  # noqa: RUF005
         )
         per_axis(
             "fig6_slosh.png",
