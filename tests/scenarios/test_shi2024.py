@@ -1,5 +1,6 @@
-"""Shi 2024 reproduction in short mode (dt = 1e-2 s, 150 s): metrics.json keys, model data,
-the paper's claims from our own numbers, V2 non-increasing.
+"""Shi 2024 reproduction in short mode (dt = 1e-2 s, 150 s, all five cases in two compiled
+programs): metrics.json keys, model data, the paper's claims from our own numbers, V2
+non-increasing; the batch's constant command; bad variants.
 
 Tolerances: the claims compare settling times that differ by tens of seconds (44 s against
 110 s and 71 s at 1e-2) and peaks that differ by factors of 30-70, far beyond the step's
@@ -8,9 +9,13 @@ effect (settling times move by < 0.1 s between dt = 5e-3 and 1e-3, measured).
 
 import json
 
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
 import pytest
 
-from jaxatt.scenarios import REGISTRY, shi2024
+from jaxatt.scenarios import REGISTRY, TUNING, shi2024, shi2024_tuning
 
 
 KEYS = (
@@ -40,7 +45,7 @@ def test_metrics_json_and_model_data(result):
     assert on_disk["mass_matrix_min_eigenvalue"] > 0.4
     assert on_disk["literal_total_reading_min_eigenvalue"] == pytest.approx(-0.2066, abs=1e-4)
     assert on_disk["smoother_duration_literal"] == pytest.approx(126.1747, abs=1e-4)
-    for case in ("case1_no_smoother", "case1_smoother", "case2"):
+    for case in shi2024.CASES:
         for key in KEYS:
             assert key in on_disk[case]
         assert on_disk[case]["result"] == "successful"
@@ -71,3 +76,32 @@ def test_paper_claims_from_our_numbers(result):
         assert m[case]["lyapunov_max_increase"] <= 0  # V2 of (27) non-increasing on the grid
     # Observer floor at dt = 1e-2: below L dt / 2 = 0.5 N m (the RK4 dead zone).
     assert m["case1_no_smoother"]["observer_error_final"] < 0.5
+
+
+def test_unshaped_variant_is_the_constant_command():
+    """The batch's unshaped command (a step from the target to itself) is the constant command
+    exactly: q_c = [1, 0, 0, 0], omega_d = omega_d' = 0 at every time, whatever the smoother."""
+    batched, template = shi2024.batch([shi2024.Variant(None), shi2024.Variant(0.0996)])
+    fields = jax.tree_util.tree_map(lambda x: x[0], batched)
+    command = eqx.combine(fields, template).reference
+    ts = jnp.array([0.0, 3.3, 40.0, 126.0, 200.0])
+    out = jax.jit(jax.vmap(lambda t: command(t, None)[0]))(ts)
+    constant, _ = shi2024.ConstantAttitude(jnp.asarray(shi2024.Q_TARGET))(0.0, None)
+    assert np.array_equal(np.asarray(out.q_d), np.tile(np.asarray(constant.q_d), (5, 1)))
+    assert not np.any(np.asarray(out.omega_d)) and not np.any(np.asarray(out.omega_d_dot))
+
+
+def test_bad_variants_and_tuning_sizes_are_refused(tmp_path):
+    with pytest.raises(ValueError, match="kp"):
+        shi2024.batch([shi2024.Variant(0.5, gains=(("kp", 1.5),))])
+    with pytest.raises(ValueError, match="gains"):
+        shi2024.batch([shi2024.Variant(0.5, gains=(("alpha", 1.0),))])
+    with pytest.raises(ValueError, match="frequency"):
+        shi2024.batch([shi2024.Variant(-0.5)])
+    with pytest.raises(ValueError, match="observer"):
+        shi2024.batch([shi2024.Variant(0.5), shi2024.Variant(0.5, observed=False)])
+    assert TUNING["shi2024"] is shi2024_tuning.PROBLEM
+    with pytest.raises(ValueError, match="samples"):
+        shi2024_tuning.run(tmp_path, samples=256)
+    with pytest.raises(ValueError, match="weight"):
+        shi2024_tuning.VibrationObjective(-1.0)

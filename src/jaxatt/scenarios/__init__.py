@@ -13,6 +13,7 @@ from . import (
     demo as demo,
     rigid_body_pd as rigid_body_pd,
     shi2024 as shi2024,
+    shi2024_tuning as shi2024_tuning,
     yu2022_ftac_mrp as yu2022_ftac_mrp,
 )
 from ._protocol import Scenario as Scenario, TuningProblem as TuningProblem
@@ -29,5 +30,7 @@ REGISTRY: dict[str, Scenario] = {
 }
 """Scenarios by CLI name (`jaxatt reproduce NAME`)."""
 
-TUNING: dict[str, TuningProblem] = {chen2022_tuning.PROBLEM.name: chen2022_tuning.PROBLEM}
+TUNING: dict[str, TuningProblem] = {
+    problem.name: problem for problem in (chen2022_tuning.PROBLEM, shi2024_tuning.PROBLEM)
+}
 """Tuning problems by CLI name (`jaxatt tune NAME`)."""

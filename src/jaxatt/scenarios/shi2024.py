@@ -41,11 +41,15 @@ smoothed cases are timed on the manoeuvre, not on tracking a moving command).
 `short=True` (CI): dt = 1e-2 s over 150 s, only `SHORT_CASES`, no observer floor sweep.
 """
 
+import dataclasses
 import json
 import pathlib
+from collections.abc import Sequence
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
+import jax.tree_util as jtu
 import numpy as np
 
 from ..controllers import (
@@ -69,7 +73,7 @@ from ..references import AbstractReference, ConstantAttitude
 from ..rotations import attitude_error_quat
 from ..shaping import ShapedAttitude, ZeroVibration, ZeroVibrationDerivative, ZeroVibrationSmoother
 from ..signals import Sinusoid
-from ..simulation import ClosedLoop, Status, Trajectory, simulate
+from ..simulation import ClosedLoop, Simulation, Status, Trajectory, integrate, simulate
 from ._protocol import Scenario
 
 
@@ -106,7 +110,7 @@ HORIZON = 250.0
 DT = 1e-3
 SHORT_HORIZON = 150.0
 SHORT_DT = 1e-2
-SHORT_CASES = ("case1_no_smoother", "case1_smoother", "case2")
+SHORT_CASES = CASES
 SAVE_PERIOD = 0.1
 OBSERVER_WINDOW = 10.0
 """`observer_error_final` is the largest $|\\hat T_{d,i} - \\bar T_{d,i}|$ over the last 10 s."""
@@ -249,11 +253,20 @@ def lyapunov(loop: ClosedLoop, traj: Trajectory) -> jax.Array:
     )
 
 
-def trajectory_metrics(traj: Trajectory, loop: ClosedLoop | None = None) -> dict:
-    """The per-case metrics of `metrics.json` for one trajectory (`loop` needed for the
-    observer error and $V_2$)."""
+SERIES = ("attitude_error_vector", "observer_error", "lyapunov")
+"""Per-sample time series `derived` returns next to the metrics (for the figures)."""
+
+
+def derived(loop: ClosedLoop | None, traj: Trajectory) -> dict[str, jax.Array]:
+    """The per-case metrics of `metrics.json` and the series of the figures (traceable).
+
+    `loop` gives the plant of the lumped disturbance and the law of $V_2$; without it the
+    observer error and $V_2$ are absent (and the paper's plant is used)."""
     ts = traj.ts
-    error = attitude_error_vector(traj)
+    the_plant = plant() if loop is None else loop.plant
+    error = jax.vmap(lambda q: attitude_error_quat(q, jnp.asarray(Q_TARGET))[1:])(
+        traj.plant_states.q
+    )
     att = jnp.max(jnp.abs(error), axis=1)
     rate = jnp.max(jnp.abs(traj.plant_states.omega), axis=1)
     u = traj.signals["u"]
@@ -270,16 +283,30 @@ def trajectory_metrics(traj: Trajectory, loop: ClosedLoop | None = None) -> dict
         "residual_modal_energy_after_150s": jnp.max(
             jnp.where(ts >= 150.0, traj.signals["modal_energy"], 0.0)
         ),
-        "observer_error_final": None,
+        "attitude_error_vector": error,
     }
     if loop is not None and "d_hat" in traj.signals:
-        diff = jnp.abs(traj.signals["d_hat"] - lumped_disturbance(loop, traj))
+        lumped = jax.vmap(the_plant.lumped_disturbance)(ts, traj.plant_states, u)
+        diff = jnp.abs(traj.signals["d_hat"] - lumped)
         late = ts >= ts[-1] - OBSERVER_WINDOW
+        out["observer_error"] = diff
         out["observer_error_final"] = jnp.max(jnp.where(late[:, None], diff, 0.0))
     if loop is not None:
         v2 = lyapunov(loop, traj)
+        out["lyapunov"] = v2
         out["lyapunov_max_increase"] = jnp.max(jnp.diff(v2))
         out["lyapunov_initial"] = v2[0]
+    return out
+
+
+_derived_jit = eqx.filter_jit(derived)
+
+
+def trajectory_metrics(traj: Trajectory, loop: ClosedLoop | None = None) -> dict:
+    """The per-case metrics of `metrics.json` for one trajectory (`loop` needed for the
+    observer error and $V_2$; `observer_error_final` is None without an observer)."""
+    out = {k: v for k, v in _derived_jit(loop, traj).items() if k not in SERIES}
+    out.setdefault("observer_error_final", None)
     return out
 
 
@@ -295,17 +322,156 @@ def _to_json(value):
     return [_to_json(v) for v in arr]
 
 
+@dataclasses.dataclass(frozen=True)
+class Variant:
+    """One closed loop of a batch: the smoother frequency `smoother` [rad/s] (`None`: the
+    constant command), the observer on or off, and TVSMC gains overriding the paper's
+    (`kp`, `k0`, `gamma_k`, `p2_0`)."""
+
+    smoother: float | None
+    observed: bool = True
+    gains: tuple[tuple[str, float], ...] = ()
+
+
+BATCHED_GAINS = ("kp", "k0", "gamma_k", "p2_0")
+"""The TVSMC fields a batch may vary (and the tuning problem tunes)."""
+
+
+def case_variant(case: str) -> Variant:
+    """The `Variant` of a case of `CASES`."""
+    smoother, observed = _case_options(case)
+    return Variant(None if smoother is None else smoother_frequency(smoother), observed)
+
+
+def shaped_template(observed: bool) -> ClosedLoop:
+    r"""The closed loop every batch runs: the command is always a `ShapedAttitude`, so that
+    shaped and unshaped variants share one compiled program. The unshaped command is the
+    step from the target to itself ($q_0 = \bar q_c$): $q_c(t) = \bar q_c$ and
+    $\omega_d = \dot\omega_d = 0$ exactly, whatever the smoother (the same command as
+    `ConstantAttitude`)."""
+    the_plant = plant()
+    law = controller()
+    command = ShapedAttitude(
+        ZeroVibrationSmoother(SMOOTHER_FREQUENCY_LITERAL, SMOOTHER_DAMPING),
+        q0(),
+        jnp.asarray(Q_TARGET),
+    )
+    if observed:
+        return ClosedLoop(
+            the_plant, ObserverCompensated(law), command, observer=observer(the_plant)
+        )
+    return ClosedLoop(the_plant, law, command)
+
+
+def _law(loop: ClosedLoop) -> TimeVaryingSlidingMode:
+    law = loop.controller
+    return law.controller if isinstance(law, ObserverCompensated) else law
+
+
+def _batched_fields(loop: ClosedLoop) -> tuple:
+    law = _law(loop)
+    return (
+        loop.reference.shaper.frequency,
+        loop.reference.q_start,
+        *(getattr(law, name) for name in BATCHED_GAINS),
+    )
+
+
+def batch(variants: Sequence[Variant]) -> tuple[ClosedLoop, ClosedLoop]:
+    """`(batched, template)`: the fields that differ between `variants` (stacked on a leading
+    axis) and the rest of the loop, for `eqx.combine` (all variants must share `observed`)."""
+    observed = {v.observed for v in variants}
+    if len(observed) != 1:
+        raise ValueError(
+            "shi2024: the variants of one batch must all have or all lack the observer."
+        )
+    template = shaped_template(observed.pop())
+    law = _law(template)
+    rows = []
+    for v in variants:
+        gains = dict(v.gains)
+        unknown = set(gains) - set(BATCHED_GAINS)
+        if unknown:
+            raise ValueError(f"shi2024: `gains` may set {BATCHED_GAINS}, got {sorted(unknown)}.")
+        checked = {name: gains.get(name, float(getattr(law, name))) for name in BATCHED_GAINS}
+        TimeVaryingSlidingMode(MAX_TORQUE, **checked)  # the gains' checks, on the host
+        if v.smoother is not None:
+            ZeroVibrationSmoother(v.smoother, SMOOTHER_DAMPING)  # frequency > 0, on the host
+        rows.append(
+            (
+                jnp.asarray(
+                    SMOOTHER_FREQUENCY_LITERAL if v.smoother is None else v.smoother,
+                    jnp.result_type(float),
+                ),
+                jnp.asarray(Q_TARGET) if v.smoother is None else q0(),
+                *(jnp.asarray(checked[name], jnp.result_type(float)) for name in BATCHED_GAINS),
+            )
+        )
+    stacked = tuple(np.stack([np.asarray(x) for x in column]) for column in zip(*rows))
+    loop = eqx.tree_at(_batched_fields, template, stacked)
+    spec = jtu.tree_map(lambda _: False, loop)
+    spec = eqx.tree_at(_batched_fields, spec, (True,) * len(stacked))
+    return eqx.partition(loop, spec)
+
+
+@eqx.filter_jit
+def _simulate_one(fields, template, x0, sim):
+    loop = eqx.combine(fields, template)
+    traj = integrate(loop, x0, sim)
+    return traj, derived(loop, traj)
+
+
+@dataclasses.dataclass(frozen=True)
+class Run:
+    """One simulated variant: its trajectory and `derived` values (NumPy)."""
+
+    variant: Variant
+    traj: Trajectory
+    values: dict
+
+    def metrics(self) -> dict:
+        """The `metrics.json` entry (series dropped)."""
+        out = {k: _to_json(v) for k, v in self.values.items() if k not in SERIES}
+        out.setdefault("observer_error_final", None)
+        out["result"] = Status(int(self.traj.status)).name
+        return out
+
+
+def simulate_variants(
+    variants: Sequence[Variant],
+    *,
+    horizon: float = HORIZON,
+    dt: float = DT,
+    save_period: float = SAVE_PERIOD,
+) -> list[Run]:
+    """Simulate `variants` from `initial_state()` (classic RK4, continuous control): one
+    compiled program per observer setting, whatever the smoother frequencies and gains."""
+    sim = Simulation(0.0, horizon, dt, save_every=max(1, round(save_period / dt)), where="shi2024")
+    x0 = initial_state()
+    out: list = [None] * len(variants)
+    for observed in (True, False):
+        index = [i for i, v in enumerate(variants) if v.observed == observed]
+        if not index:
+            continue
+        batched, template = batch([variants[i] for i in index])
+        one_sim = sim.with_performance(sim.performance.resolve(1))
+        for k, i in enumerate(index):
+            # Only leaves differ between variants: one compiled program runs them all (a
+            # `vmap` would double its compile time for no gain at these sizes).
+            fields = jtu.tree_map(lambda x, k=k: x[k], batched)
+            traj, values = _simulate_one(fields, template, x0, one_sim)
+            values = {name: np.asarray(v) for name, v in values.items()}
+            out[i] = Run(variants[i], traj, values)
+    return out
+
+
 def run(
     *, horizon: float = HORIZON, dt: float = DT, cases=CASES, progress: bool = False
-) -> dict[str, tuple[ClosedLoop, Trajectory]]:
-    """Simulate each case; returns `{case: (loop, trajectory)}`."""
-    from tqdm import tqdm
-
-    out = {}
-    for case in tqdm(cases, desc="shi2024", disable=not progress):
-        loop = build(case)
-        out[case] = (loop, simulate_case(loop, horizon=horizon, dt=dt))
-    return out
+) -> dict[str, Run]:
+    """Simulate each case (see `simulate_variants`); returns `{case: Run}`."""
+    del progress  # two compiled programs; nothing to report in between
+    runs = simulate_variants([case_variant(c) for c in cases], horizon=horizon, dt=dt)
+    return dict(zip(cases, runs))
 
 
 def model_data() -> dict:
@@ -419,10 +585,8 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
         },
         **model_data(),
     }
-    for case, (loop, traj) in runs.items():
-        values = {k: _to_json(v) for k, v in trajectory_metrics(traj, loop).items()}
-        values["result"] = Status(int(traj.status)).name
-        metrics[case] = values
+    for case, result in runs.items():
+        metrics[case] = result.metrics()
     metrics["observer_floor"] = None if short else observer_floor()
     metrics["claims"] = claims(metrics)
     _write_figures(out, runs, metrics["observer_floor"])
@@ -448,10 +612,10 @@ def _write_figures(out: pathlib.Path, runs: dict, floor: dict | None) -> None:
         fig, axes = plt.subplots(n, 1, figsize=(7, 2.2 * n), sharex=True, layout="constrained")
         axes = np.atleast_1d(axes)
         for case in cases:
-            loop, traj = runs[case]
-            values = np.asarray(getter(loop, traj))
+            result = runs[case]
+            values = np.asarray(getter(result))
             for i, ax in enumerate(axes):
-                ax.plot(np.asarray(traj.ts), values[:, i], lw=1.0, label=LABELS[case])
+                ax.plot(np.asarray(result.traj.ts), values[:, i], lw=1.0, label=LABELS[case])
         for i, ax in enumerate(axes):
             ax.set_ylabel(ylabel.format(i=i + 1))
         axes[0].legend(fontsize=7)
@@ -464,11 +628,13 @@ def _write_figures(out: pathlib.Path, runs: dict, floor: dict | None) -> None:
         c for c in ("case1_no_smoother", "case1_smoother", "case1_smoother_beam") if c in runs
     )
     with plot.style():
-        loop, traj = runs["case1_no_smoother"]
+        result = runs["case1_no_smoother"]
         fig, ax = plt.subplots(figsize=(7, 3.2), layout="constrained")
-        error = np.abs(np.asarray(traj.signals["d_hat"] - lumped_disturbance(loop, traj)))
+        error = result.values["observer_error"]
         for i in range(3):
-            ax.semilogy(np.asarray(traj.ts), error[:, i] + 1e-12, lw=0.8, label=f"axis {i + 1}")
+            ax.semilogy(
+                np.asarray(result.traj.ts), error[:, i] + 1e-12, lw=0.8, label=f"axis {i + 1}"
+            )
         ax.set_xlabel("t [s]")
         ax.set_ylabel(r"$|\hat T_{d,i} - \bar T_{d,i}|$ [N m]")
         ax.legend(ncol=3)
@@ -478,28 +644,28 @@ def _write_figures(out: pathlib.Path, runs: dict, floor: dict | None) -> None:
 
         per_axis(
             "fig3_rates.png",
-            lambda lp, tr: tr.plant_states.omega,
+            lambda r: r.traj.plant_states.omega,
             r"$\omega_{i}$ [rad/s]",
             "Fig. 3 equivalent: body rates",
             (*main, "case2"),  # noqa: RUF005
         )
         per_axis(
             "fig4_attitude.png",
-            lambda lp, tr: attitude_error_vector(tr),
+            lambda r: r.values["attitude_error_vector"],
             r"$q_{i}$",
             "Fig. 4 equivalent: attitude (vector part, final command)",
             (*main, "case2"),  # noqa: RUF005
         )
         per_axis(
             "fig5_torque.png",
-            lambda lp, tr: tr.signals["u"],
+            lambda r: r.traj.signals["u"],
             r"$\tau_{i}$ [N m]",
             "Fig. 5 equivalent: control torque",
             (*main, "case2"),  # noqa: RUF005
         )
         per_axis(
             "fig6_slosh.png",
-            lambda lp, tr: tr.plant_states.eta,
+            lambda r: r.traj.plant_states.eta,
             r"$\eta_{i}$ [m]",
             "Fig. 6 equivalent: slosh displacement",
             main,
@@ -507,7 +673,7 @@ def _write_figures(out: pathlib.Path, runs: dict, floor: dict | None) -> None:
         )
         per_axis(
             "fig7_modes.png",
-            lambda lp, tr: tr.plant_states.n,
+            lambda r: r.traj.plant_states.n,
             r"$n_{i}$",
             "Fig. 7 equivalent: modal coordinates",
             main,
