@@ -38,7 +38,13 @@ simulated $\dot\omega$. Settling times are last exits of $\max_i|\cdot_i|$, wher
 error is the vector part of $\bar q_c^{-1}\otimes q$ against the **final** command (so the
 smoothed cases are timed on the manoeuvre, not on tracking a moving command).
 
-`short=True` (CI): dt = 1e-2 s over 150 s, only `SHORT_CASES`, no observer floor sweep.
+`short=True` (CI): dt = 1e-2 s over 150 s, every case, no observer floor sweep.
+
+**Compiled programs:** the cases are `Variant`s of two closed loops (with and without the
+observer) whose command is always a `ShapedAttitude` (the unshaped command is the step from
+the target to itself, exactly the constant command); smoother frequencies and TVSMC gains are
+array leaves, so `simulate_variants` runs every variant of a loop through one compiled
+program, the metrics and figure series (`derived`) computed inside it.
 """
 
 import dataclasses
