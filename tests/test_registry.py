@@ -37,6 +37,7 @@ from jaxatt.plants import (
 from jaxatt.scenarios import (
     chen2022_two_phase_power as chen,
     duan2024 as duan,
+    shi2024,
     yu2022_ftac_mrp as yu,
     zhang2021_hover as zhang,
     zhang2021_tuning as zhang_tuning,
@@ -69,6 +70,12 @@ def _translations(agents=()):
 def _flexible_states():
     q = _quaternions()
     return standins.FlexibleState(q.q, q.omega, 0.01 * jnp.ones((3, 2)), jnp.zeros((3, 2)))
+
+
+def _slosh_states():
+    q = _quaternions()
+    rest = jax.vmap(shi2024.plant().rest_state)(q.q, q.omega)
+    return eqx.tree_at(lambda x: x.n, rest, 0.01 * jnp.ones((3, 3)))
 
 
 def _yu_batch():
@@ -113,6 +120,11 @@ CASES = {
         lambda: yu.build("FTAC", allow_inadmissible=False),
         _yu_batch,
         "observer.rho1",
+    ),
+    "Shi 2024: slosh + modes, ISM observer, TVSMC, ZV smoother": (
+        lambda: shi2024.build("case1_smoother"),
+        _slosh_states,
+        "controller.controller.kp",
     ),
     "open loop": (
         lambda: ClosedLoop(

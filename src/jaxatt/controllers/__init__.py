@@ -21,4 +21,10 @@ from ._robust import (
     NormRobustTerm as NormRobustTerm,
 )
 from ._sliding_mode import SlidingModeTracking as SlidingModeTracking
+from ._time_varying_sliding_mode import (
+    PAPER_ALPHA_BAR as PAPER_ALPHA_BAR,
+    SHARP_ALPHA_BAR as SHARP_ALPHA_BAR,
+    TimeVaryingSlidingMode as TimeVaryingSlidingMode,
+    TimeVaryingSlidingModeState as TimeVaryingSlidingModeState,
+)
 from ._tracking import TrackingErrors as TrackingErrors, tracking_errors as tracking_errors

@@ -4,6 +4,10 @@ from ._base import (
     AbstractObserver as AbstractObserver,
     ObservedMeasurement as ObservedMeasurement,
 )
+from ._integral_sliding_mode import (
+    IntegralSlidingModeObserver as IntegralSlidingModeObserver,
+    IntegralSlidingModeState as IntegralSlidingModeState,
+)
 from ._super_twisting import (
     SuperTwistingGainCheck as SuperTwistingGainCheck,
     SuperTwistingObserver as SuperTwistingObserver,

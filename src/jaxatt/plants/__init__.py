@@ -13,6 +13,20 @@ from ..signals import (
 )
 from ._agents import AgentsState as AgentsState, SingleIntegratorAgents as SingleIntegratorAgents
 from ._base import AbstractPlant as AbstractPlant
+from ._beam import (
+    BeamModes as BeamModes,
+    CantileverBeam as CantileverBeam,
+    cantilever_modes as cantilever_modes,
+    cantilever_roots as cantilever_roots,
+    mode_curvature as mode_curvature,
+    mode_shape as mode_shape,
+)
+from ._flexible_slosh import (
+    FlexibleSloshSpacecraft as FlexibleSloshSpacecraft,
+    FlexibleSloshState as FlexibleSloshState,
+    ModalAppendage as ModalAppendage,
+    SloshPendulum as SloshPendulum,
+)
 from ._relative_pose import (
     POSE_GROUPS as POSE_GROUPS,
     CoupledAttitudeOrbit as CoupledAttitudeOrbit,

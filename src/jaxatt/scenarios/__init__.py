@@ -13,6 +13,8 @@ from . import (
     demo as demo,
     duan2024 as duan2024,
     rigid_body_pd as rigid_body_pd,
+    shi2024 as shi2024,
+    shi2024_tuning as shi2024_tuning,
     yu2022_ftac_mrp as yu2022_ftac_mrp,
     zhang2021_hover as zhang2021_hover,
     zhang2021_tuning as zhang2021_tuning,
@@ -28,6 +30,7 @@ REGISTRY: dict[str, Scenario] = {
         yu2022_ftac_mrp.SCENARIO,
         zhang2021_hover.SCENARIO,
         duan2024.SCENARIO,
+        shi2024.SCENARIO,
     )
 }
 """Scenarios by CLI name (`jaxatt reproduce NAME`)."""
@@ -38,6 +41,7 @@ TUNING: dict[str, TuningProblem] = {
         chen2022_tuning.PROBLEM,
         zhang2021_tuning.PROBLEM,
         zhang2021_tuning.FINITE_TIME_PROBLEM,
+        shi2024_tuning.PROBLEM,
     )
 }
 """Tuning problems by CLI name (`jaxatt tune NAME`)."""

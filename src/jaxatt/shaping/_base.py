@@ -1,0 +1,60 @@
+"""The shaper interface."""
+
+import abc
+
+import equinox as eqx
+import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike, Float
+
+from .._custom_types import RealScalarLike
+from .._validation import check, check_positive
+
+
+def damped_period(frequency: Float[ArrayLike, "..."], damping: Float[ArrayLike, "..."]):
+    r"""$T = 2\pi/(\omega\sqrt{1 - \zeta^2})$ [s], the damped period of a mode."""
+    frequency = jnp.asarray(frequency)
+    return 2 * jnp.pi / (frequency * jnp.sqrt(1 - jnp.asarray(damping) ** 2))
+
+
+def check_mode(where: str, frequency, damping) -> tuple[Array, Array]:
+    """A design mode: frequency > 0 [rad/s] and damping ratio in [0, 1)."""
+    frequency = check_positive(where, "frequency", frequency)
+    damping = check(
+        where,
+        "damping",
+        damping,
+        lambda xp, z: xp.isfinite(z) & (z >= 0) & (z < 1),
+        "must lie in [0, 1) (an underdamped mode)",
+    )
+    if frequency.shape != () or damping.shape != ():
+        raise ValueError(f"{where}: `frequency` and `damping` must be scalars.")
+    return frequency, damping
+
+
+class AbstractShaper(eqx.Module):
+    r"""A unit-integral shaping kernel $u(\tau) \ge 0$ supported on $[0, $ `duration` $]$.
+
+    **Required:**
+    - `step_response(t)`: $S(t) = \int_0^t u(\tau)\,d\tau$ (0 for $t \le 0$, 1 after
+      `duration`), the shaped unit step;
+    - `duration`: the kernel's length [s];
+    - `residual_vibration(frequency, damping)`: the amplitude of the vibration a mode
+      $(\omega, \zeta)$ keeps after the shaped step, relative to an unshaped step:
+      $V = e^{-\zeta\omega t_f}\,\big|\int u(\tau)e^{(\zeta\omega + i\omega_d)\tau}d\tau\big|$,
+      $\omega_d = \omega\sqrt{1 - \zeta^2}$, $t_f$ = `duration`.
+    """
+
+    @abc.abstractmethod
+    def step_response(self, t: RealScalarLike | Float[ArrayLike, "..."]) -> Float[Array, "..."]:
+        """$S(t) = \\int_0^t u$."""
+
+    @property
+    @abc.abstractmethod
+    def duration(self) -> Float[Array, ""]:
+        """Length of the kernel [s]."""
+
+    @abc.abstractmethod
+    def residual_vibration(
+        self, frequency: Float[ArrayLike, "..."], damping: Float[ArrayLike, "..."]
+    ) -> Float[Array, "..."]:
+        """Residual vibration of the mode $(\\omega, \\zeta)$, relative to an unshaped step."""

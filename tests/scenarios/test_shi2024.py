@@ -1,0 +1,107 @@
+"""Shi 2024 reproduction in short mode (dt = 1e-2 s, 150 s, all five cases in two compiled
+programs): metrics.json keys, model data, the paper's claims from our own numbers, V2
+non-increasing; the batch's constant command; bad variants.
+
+Tolerances: the claims compare settling times that differ by tens of seconds (44 s against
+110 s and 71 s at 1e-2) and peaks that differ by factors of 30-70, far beyond the step's
+effect (settling times move by < 0.1 s between dt = 5e-3 and 1e-3, measured).
+"""
+
+import json
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxatt.scenarios import REGISTRY, TUNING, shi2024, shi2024_tuning
+
+
+KEYS = (
+    "attitude_settle_time_1e-2",
+    "attitude_settle_time_1e-3",
+    "rate_settle_time_1e-3",
+    "peak_torque",
+    "peak_modal_n1",
+    "peak_slosh",
+    "overshoot",
+    "observer_error_final",
+)
+
+
+@pytest.fixture(scope="module")
+def result(tmp_path_factory):
+    out = tmp_path_factory.mktemp("shi2024")
+    metrics = shi2024.reproduce(out, short=True)
+    return out, metrics
+
+
+def test_metrics_json_and_model_data(result):
+    out, metrics = result
+    assert REGISTRY["shi2024"] is shi2024.SCENARIO
+    on_disk = json.loads((out / "metrics.json").read_text())
+    assert on_disk["beam_modes"] == pytest.approx([1.0087014, 6.3214236, 17.700169], rel=1e-7)
+    assert on_disk["mass_matrix_min_eigenvalue"] > 0.4
+    assert on_disk["literal_total_reading_min_eigenvalue"] == pytest.approx(-0.2066, abs=1e-4)
+    assert on_disk["smoother_duration_literal"] == pytest.approx(126.1747, abs=1e-4)
+    for case in shi2024.CASES:
+        for key in KEYS:
+            assert key in on_disk[case]
+        assert on_disk[case]["result"] == "successful"
+        assert len(on_disk[case]["overshoot"]) == 3
+    assert on_disk["case2"]["observer_error_final"] is None
+    for name in ("fig2_observer_error", "fig4_attitude", "fig6_slosh", "fig7_modes"):
+        assert (out / f"{name}.png").stat().st_size > 10_000
+
+
+def test_paper_claims_from_our_numbers(result):
+    """Hold: ~50 s without the smoother, overshoot/slosh/modes reduced by the literal smoother,
+    case 2 slower. Fails: ~50 s with the literal smoother (its command lasts 126 s)."""
+    _, m = result
+    c1, c1s, c2 = m["case1_no_smoother"], m["case1_smoother"], m["case2"]
+    assert 35 < c1["attitude_settle_time_1e-2"] < 60 and 45 < c1["rate_settle_time_1e-3"] < 65
+    assert c1s["attitude_settle_time_1e-2"] > 100  # the claim fails: the command lasts 126 s
+    assert max(c1s["overshoot"]) < 0.01 * max(c1["overshoot"])
+    assert c1s["peak_slosh"] < 0.05 * c1["peak_slosh"]
+    assert c1s["peak_modal_n1"] < 0.05 * c1["peak_modal_n1"]
+    assert c2["attitude_settle_time_1e-3"] > c1["attitude_settle_time_1e-3"] + 15
+    claims = m["claims"]
+    assert claims["case1_converges_within_60s_no_smoother"]
+    assert not claims["case1_converges_within_60s_smoother_literal"]
+    assert (
+        claims["smoother_halves_modal_n1_literal"] and claims["case2_slower_than_case1_rate_1e-3"]
+    )
+    for case in shi2024.SHORT_CASES:
+        assert m[case]["lyapunov_max_increase"] <= 0  # V2 of (27) non-increasing on the grid
+    # Observer floor at dt = 1e-2: below L dt / 2 = 0.5 N m (the RK4 dead zone).
+    assert m["case1_no_smoother"]["observer_error_final"] < 0.5
+
+
+def test_unshaped_variant_is_the_constant_command():
+    """The batch's unshaped command (a step from the target to itself) is the constant command
+    exactly: q_c = [1, 0, 0, 0], omega_d = omega_d' = 0 at every time, whatever the smoother."""
+    batched, template = shi2024.batch([shi2024.Variant(None), shi2024.Variant(0.0996)])
+    fields = jax.tree_util.tree_map(lambda x: x[0], batched)
+    command = eqx.combine(fields, template).reference
+    ts = jnp.array([0.0, 3.3, 40.0, 126.0, 200.0])
+    out = jax.jit(jax.vmap(lambda t: command(t, None)[0]))(ts)
+    constant, _ = shi2024.ConstantAttitude(jnp.asarray(shi2024.Q_TARGET))(0.0, None)
+    assert np.array_equal(np.asarray(out.q_d), np.tile(np.asarray(constant.q_d), (5, 1)))
+    assert not np.any(np.asarray(out.omega_d)) and not np.any(np.asarray(out.omega_d_dot))
+
+
+def test_bad_variants_and_tuning_sizes_are_refused(tmp_path):
+    with pytest.raises(ValueError, match="kp"):
+        shi2024.batch([shi2024.Variant(0.5, gains=(("kp", 1.5),))])
+    with pytest.raises(ValueError, match="gains"):
+        shi2024.batch([shi2024.Variant(0.5, gains=(("alpha", 1.0),))])
+    with pytest.raises(ValueError, match="frequency"):
+        shi2024.batch([shi2024.Variant(-0.5)])
+    with pytest.raises(ValueError, match="observer"):
+        shi2024.batch([shi2024.Variant(0.5), shi2024.Variant(0.5, observed=False)])
+    assert TUNING["shi2024"] is shi2024_tuning.PROBLEM
+    with pytest.raises(ValueError, match="samples"):
+        shi2024_tuning.run(tmp_path, samples=256)
+    with pytest.raises(ValueError, match="weight"):
+        shi2024_tuning.VibrationObjective(-1.0)
