@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from jaxatt import montecarlo as mc
+from jaxatt.performance import MinimumMargin
 from jaxatt.scenarios import REGISTRY, TUNING, zhang2021_hover as hover, zhang2021_tuning
 from jaxatt.simulation import ClosedLoop, Saturation, Simulation, Status, simulate
 
@@ -111,7 +112,7 @@ def test_a_violation_in_a_batch_is_a_per_sample_status_never_nan():
     x0s = jax.tree.map(lambda a, b: jnp.stack([a, b]), good, bad)
     limit = jnp.array([10.0, 10.0, 10.0, 1.0, 1.0, 1.0])
     loop = ClosedLoop(hover.plant(), hover.controller("ppc"), actuator=Saturation(limit))
-    metrics = hover.plant().default_metrics(1e-2)
+    metrics = hover.plant().default_metrics(1e-2) | {"margin": MinimumMargin()}
     result = mc.run_batch(loop, x0s, Simulation(0.0, 20.0, 0.05, save_every=10), metrics)
     status = np.asarray(result.status)
     assert status[0] == Status.successful
@@ -120,6 +121,8 @@ def test_a_violation_in_a_batch_is_a_per_sample_status_never_nan():
     for name, values in result.metrics.items():
         assert not np.any(np.isnan(np.asarray(values)[0])), name
     assert np.all(np.isinf(np.asarray(result.metrics["settle_time_position"])[1]))
+    margin = np.asarray(result.metrics["margin"])
+    assert margin[0] > 0 and np.isnan(margin[1])  # a violated sample never shows a margin
 
 
 def test_bad_options_are_refused():

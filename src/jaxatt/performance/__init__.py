@@ -17,7 +17,8 @@ The **transformation** ([`transform_error`][]) with $\delta = 1$ and $F = \tanh$
 $\beta = \partial\kappa/\partial e = 1/(\rho(1 - z^2))$ and
 $\dot\kappa = \beta(\dot e - e\dot\rho/\rho)$. It is finite only for $|e| < \rho$; outside,
 [`transform_error`][] saturates $|z|$ just below 1 (never NaN) and the controller reports the
-sample's status as `constraint_violated` ([`envelope_margin`][] $\rho - |e|$ is the signal).
+sample's status as `constraint_violated` ([`envelope_margin`][] $\rho - |e|$ is the signal,
+[`MinimumMargin`][] the metric; the violation time is the trajectory's `failure_time`).
 """
 
 from ._base import AbstractPerformance as AbstractPerformance
@@ -27,6 +28,7 @@ from ._functions import (
     FiniteTimePerformance as FiniteTimePerformance,
 )
 from ._transform import (
+    MinimumMargin as MinimumMargin,
     TransformedError as TransformedError,
     envelope_margin as envelope_margin,
     transform_error as transform_error,

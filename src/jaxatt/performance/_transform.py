@@ -2,8 +2,11 @@ r"""The prescribed-performance error transformation (Zhang et al. 2021 eqs. 22-3
 
 from typing import NamedTuple
 
+import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
+
+from ..metrics import AbstractMetric
 
 
 class TransformedError(NamedTuple):
@@ -58,3 +61,18 @@ def envelope_margin(
 ) -> Float[Array, "*k"]:
     r"""$\rho - |e|$: positive inside the envelope, $\le 0$ for a violation."""
     return jnp.asarray(rho) - jnp.abs(jnp.asarray(error))
+
+
+class MinimumMargin(AbstractMetric):
+    r"""$\min_{t,i}$ of a margin signal, e.g. `"envelope_margin"` $\rho_i - |e_i|$ (the
+    controller's signal): how close a run came to its envelopes [units of the error].
+
+    A violation makes the sample's status `constraint_violated` (its time is
+    `failure_time`), so a failed sample reports NaN here, as every non-time metric does,
+    never a margin that looks safe.
+    """
+
+    signal: str = eqx.field(default="envelope_margin", static=True)
+
+    def __call__(self, traj) -> Array:
+        return jnp.min(traj.signals[self.signal])
