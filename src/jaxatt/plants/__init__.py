@@ -12,6 +12,14 @@ from ..signals import (
     Sum as Sum,
 )
 from ._base import AbstractPlant as AbstractPlant
+from ._relative_orbit import (
+    AbstractRelativeOrbit as AbstractRelativeOrbit,
+    ClohessyWiltshire as ClohessyWiltshire,
+    RelativeOrbit as RelativeOrbit,
+    RelativeOrbitState as RelativeOrbitState,
+    TschaunerHempel as TschaunerHempel,
+    relative_orbit_state as relative_orbit_state,
+)
 from ._rigid_body import (
     MRPState as MRPState,
     QuaternionState as QuaternionState,

@@ -7,3 +7,7 @@ from ._base import (
 )
 from ._constant import ConstantAttitude as ConstantAttitude
 from ._integrated import IntegratedReference as IntegratedReference
+from ._translation import (
+    ConstantPosition as ConstantPosition,
+    TranslationReference as TranslationReference,
+)
