@@ -17,3 +17,8 @@ from ._robust import (
 )
 from ._sliding_mode import SlidingModeTracking as SlidingModeTracking
 from ._tracking import TrackingErrors as TrackingErrors, tracking_errors as tracking_errors
+from ._translational import (
+    FractionalSlidingMode as FractionalSlidingMode,
+    FractionalSlidingState as FractionalSlidingState,
+    TranslationalSlidingMode as TranslationalSlidingMode,
+)
