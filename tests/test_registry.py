@@ -29,8 +29,7 @@ from jaxatt.controllers import (
     RateConstrainedFiniteTimeMRP,
 )
 from jaxatt.plants import MRPState, QuaternionState, RigidBodyMRP, RigidBodyQuaternion, Sinusoid
-from jaxatt.scenarios import chen2022_two_phase_power as chen, yu2022_ftac_mrp as yu
-from jaxatt.scenarios import zhang2017
+from jaxatt.scenarios import chen2022_two_phase_power as chen, yu2022_ftac_mrp as yu, zhang2017
 from jaxatt.simulation import ClosedLoop, Euler, FirstOrderLag, Saturation
 
 from . import standins
