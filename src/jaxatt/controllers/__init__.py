@@ -15,6 +15,10 @@ from ._robust import (
     AxisRobustTerm as AxisRobustTerm,
     NormRobustTerm as NormRobustTerm,
 )
+from ._six_dof import (
+    AdaptiveTerminalSixDof as AdaptiveTerminalSixDof,
+    SixDofAdaptiveState as SixDofAdaptiveState,
+)
 from ._sliding_mode import SlidingModeTracking as SlidingModeTracking
 from ._tracking import TrackingErrors as TrackingErrors, tracking_errors as tracking_errors
 from ._translational import (

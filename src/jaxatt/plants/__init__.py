@@ -27,3 +27,4 @@ from ._rigid_body import (
     RigidBodyMRP as RigidBodyMRP,
     RigidBodyQuaternion as RigidBodyQuaternion,
 )
+from ._six_dof import SixDof as SixDof, SixDofState as SixDofState

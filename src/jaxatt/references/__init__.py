@@ -8,6 +8,8 @@ from ._base import (
 from ._constant import ConstantAttitude as ConstantAttitude
 from ._integrated import IntegratedReference as IntegratedReference
 from ._translation import (
+    ConstantPose as ConstantPose,
     ConstantPosition as ConstantPosition,
+    PoseReference as PoseReference,
     TranslationReference as TranslationReference,
 )

@@ -1,4 +1,5 @@
-"""Translational references: a desired relative position, velocity and acceleration."""
+"""Translational and pose references: a desired position, velocity and acceleration (and an
+attitude)."""
 
 from typing import ClassVar
 
@@ -8,7 +9,8 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
 from .._validation import check_shape
-from ._base import AbstractReference
+from ._base import AbstractReference, AttitudeReference
+from ._constant import ConstantAttitude
 
 
 class TranslationReference(eqx.Module):
@@ -42,3 +44,36 @@ class ConstantPosition(AbstractReference):
         del t, state
         zero = jnp.zeros_like(self.position)
         return TranslationReference(self.position, zero, zero), None
+
+
+class PoseReference(eqx.Module):
+    """Desired pose at one instant: a [`TranslationReference`][] and an
+    [`jaxatt.references.AttitudeReference`][]."""
+
+    translation: TranslationReference
+    attitude: AttitudeReference
+
+
+class ConstantPose(AbstractReference):
+    """Hold `position` [m] and attitude `q_d` at rest (defaults: origin, identity)."""
+
+    position: ConstantPosition
+    attitude: ConstantAttitude
+    output_type: ClassVar[type] = PoseReference
+
+    def __init__(
+        self,
+        position: Float[ArrayLike, "3"] | None = None,
+        q_d: Float[ArrayLike, "4"] | None = None,
+    ):
+        self.position = ConstantPosition(position)
+        self.attitude = ConstantAttitude(q_d)
+
+    def init(self, t0: RealScalarLike) -> None:
+        del t0
+        return None
+
+    def __call__(self, t: RealScalarLike, state: None) -> tuple[PoseReference, None]:
+        translation, _ = self.position(t, None)
+        attitude, _ = self.attitude(t, None)
+        return PoseReference(translation, attitude), None

@@ -13,6 +13,7 @@ from . import (
     demo as demo,
     rigid_body_pd as rigid_body_pd,
     yu2022_ftac_mrp as yu2022_ftac_mrp,
+    yue2018 as yue2018,
     zhang2017 as zhang2017,
 )
 from ._protocol import Scenario as Scenario, TuningProblem as TuningProblem
@@ -25,6 +26,7 @@ REGISTRY: dict[str, Scenario] = {
         chen2022_two_phase_power.SCENARIO,
         yu2022_ftac_mrp.SCENARIO,
         zhang2017.SCENARIO,
+        yue2018.SCENARIO,
     )
 }
 """Scenarios by CLI name (`jaxatt reproduce NAME`)."""
