@@ -29,7 +29,12 @@ from jaxatt.controllers import (
     RateConstrainedFiniteTimeMRP,
 )
 from jaxatt.plants import MRPState, QuaternionState, RigidBodyMRP, RigidBodyQuaternion, Sinusoid
-from jaxatt.scenarios import chen2022_two_phase_power as chen, yu2022_ftac_mrp as yu, zhang2017
+from jaxatt.scenarios import (
+    chen2022_two_phase_power as chen,
+    yu2022_ftac_mrp as yu,
+    yue2018,
+    zhang2017,
+)
 from jaxatt.simulation import ClosedLoop, Euler, FirstOrderLag, Saturation
 
 from . import standins
@@ -75,6 +80,17 @@ def _relative_orbits():
     )
 
 
+def _six_dof_states():
+    from jaxatt.plants import SixDofState
+
+    q = _quaternions()
+    keys = jr.split(jr.key(6))
+    return SixDofState(
+        jr.uniform(keys[0], (3, 3), minval=-20, maxval=20), 0.1 * jr.normal(keys[1], (3, 3)),
+        q.q, q.omega,
+    )
+
+
 def _relative_orbit_cases():
     from jaxatt.controllers import FractionalSlidingMode
     from jaxatt.plants import ClohessyWiltshire, TschaunerHempel
@@ -82,6 +98,11 @@ def _relative_orbit_cases():
 
     cw = ClohessyWiltshire(7e6)
     return {
+        "6-DOF + adaptive terminal SMC (Yue 2018 eqs. 24-25)": (
+            lambda: yue2018.build(yue2018.TUNED_GAINS),
+            _six_dof_states,
+            "controller.k3",
+        ),
         "relative orbit + PD sliding mode (Zhang 2017 eq. 11)": (
             lambda: zhang2017.build("pd"),
             _relative_orbits,
