@@ -31,6 +31,7 @@ from jaxatt.controllers import (
 from jaxatt.plants import MRPState, QuaternionState, RigidBodyMRP, RigidBodyQuaternion, Sinusoid
 from jaxatt.scenarios import (
     chen2022_two_phase_power as chen,
+    flyaround,
     yu2022_ftac_mrp as yu,
     yue2018,
     zhang2017,
@@ -98,6 +99,11 @@ def _relative_orbit_cases():
 
     cw = ClohessyWiltshire(7e6)
     return {
+        "fly-around: relative orbit + attitude, body-fixed thrust (Zhu & Yang 2009)": (
+            lambda: flyaround.build(),
+            lambda: flyaround.dispersed_starts(jr.key(7), 3),
+            "controller.translation.surface.slope",
+        ),
         "6-DOF + adaptive terminal SMC (Yue 2018 eqs. 24-25)": (
             lambda: yue2018.build(yue2018.TUNED_GAINS),
             _six_dof_states,
@@ -259,7 +265,7 @@ def test_generic_contract(name):
         jax.tree.structure(_index(x0s, 0)), [first.at[(0,) * first.ndim].set(jnp.nan), *rest]
     )
     before = compile_count()
-    with pytest.raises(ValueError, match=r"`x0\.\w+` must be finite"):
+    with pytest.raises(ValueError, match=r"`x0(\.\w+)+` must be finite"):
         jaxatt.simulate(loop, bad, 0.0, T1, **common)
     assert compile_count() == before
 

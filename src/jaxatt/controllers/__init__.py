@@ -10,6 +10,7 @@ from ._finite_time import (
 from ._observer_compensated import ObserverCompensated as ObserverCompensated
 from ._open_loop import OpenLoop as OpenLoop
 from ._pd import MRPPD as MRPPD, QuaternionPD as QuaternionPD
+from ._proximity import ProximitySlidingMode as ProximitySlidingMode
 from ._robust import (
     AbstractRobustTerm as AbstractRobustTerm,
     AxisRobustTerm as AxisRobustTerm,

@@ -36,6 +36,7 @@ from ._relative_motion import (
     clohessy_wiltshire_stm as clohessy_wiltshire_stm,
     coriolis_matrices as coriolis_matrices,
     hill_frame as hill_frame,
+    hill_rotation as hill_rotation,
     hill_to_inertial as hill_to_inertial,
     inertial_to_hill as inertial_to_hill,
     linear_relative_gravity as linear_relative_gravity,

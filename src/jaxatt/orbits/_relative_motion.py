@@ -302,3 +302,22 @@ def tschauner_hempel_stm(
     out = out.at[jnp.ix_(idx_planar, idx_planar)].set(planar)
     out = out.at[jnp.ix_(idx_normal, idx_normal)].set(normal)
     return out
+
+
+def hill_rotation(
+    theta: RealScalarLike, i: RealScalarLike, raan: RealScalarLike, argp: RealScalarLike
+) -> Float[Array, "3 3"]:
+    r"""$C_{HN} = R_3(\omega + \theta)R_1(i)R_3(\Omega)$: inertial to Hill components for a target
+    at true anomaly $\theta$ on an orbit of inclination $i$, node $\Omega$, periapsis $\omega$
+    (the same matrix as [`hill_frame`][] of the target's state, without needing the state)."""
+    u = jnp.asarray(argp) + jnp.asarray(theta)
+
+    def r1(a):
+        c, s = jnp.cos(a), jnp.sin(a)
+        return jnp.array([[1.0, 0.0, 0.0], [0.0, c, s], [0.0, -s, c]])
+
+    def r3(a):
+        c, s = jnp.cos(a), jnp.sin(a)
+        return jnp.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+
+    return r3(u) @ r1(jnp.asarray(i)) @ r3(jnp.asarray(raan))

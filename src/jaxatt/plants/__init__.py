@@ -12,6 +12,7 @@ from ..signals import (
     Sum as Sum,
 )
 from ._base import AbstractPlant as AbstractPlant
+from ._proximity import Proximity as Proximity, ProximityState as ProximityState
 from ._relative_orbit import (
     AbstractRelativeOrbit as AbstractRelativeOrbit,
     ClohessyWiltshire as ClohessyWiltshire,

@@ -11,6 +11,7 @@ from . import (
     chen2022_tuning as chen2022_tuning,
     chen2022_two_phase_power as chen2022_two_phase_power,
     demo as demo,
+    flyaround as flyaround,
     rigid_body_pd as rigid_body_pd,
     yu2022_ftac_mrp as yu2022_ftac_mrp,
     yue2018 as yue2018,
@@ -27,6 +28,7 @@ REGISTRY: dict[str, Scenario] = {
         yu2022_ftac_mrp.SCENARIO,
         zhang2017.SCENARIO,
         yue2018.SCENARIO,
+        flyaround.SCENARIO,
     )
 }
 """Scenarios by CLI name (`jaxatt reproduce NAME`)."""
