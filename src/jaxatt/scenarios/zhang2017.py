@@ -40,6 +40,7 @@ import json
 import math
 import pathlib
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -129,6 +130,34 @@ def run(controller: str, disturbed: bool, horizon: float = HORIZON, **options) -
         sampling=ZeroOrderHold(STEP),
         save_every=save_every(controller),
     )
+
+
+ALPHA_STUDY = (0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
+ALPHA_STUDY_HORIZON = 60.0
+
+
+def alpha_study(alphas=ALPHA_STUDY, horizon: float = ALPHA_STUDY_HORIZON, disturbed=False) -> dict:
+    """Convergence time (to 10 m) and control energy of PD$^\\alpha$ as functions of
+    $\\alpha$ (the trade-off of the abstract), with PD for reference: one compiled program
+    vmapped over `alphas` (full memory over `horizon`)."""
+
+    def one(alpha):
+        traj = run("pd_alpha", disturbed, horizon, alpha=alpha)
+        return (
+            settling_time(traj.ts, traj.signals["position_norm"], 10.0),
+            traj.signals["energy"][-1],
+        )
+
+    t10, energy = jax.jit(jax.vmap(one))(jnp.asarray(alphas))
+    pd = run("pd", disturbed, horizon)
+    return {
+        "horizon": horizon,
+        "alpha": [float(a) for a in alphas],
+        "settle_time_10m": [_json(v) for v in np.asarray(t10)],
+        "energy": [float(v) for v in np.asarray(energy)],
+        "pd_settle_time_10m": _json(settling_time(pd.ts, pd.signals["position_norm"], 10.0)),
+        "pd_energy": float(pd.signals["energy"][-1]),
+    }
 
 
 def first_zero_times(ts, s, band: float = 0.0) -> np.ndarray:
@@ -255,6 +284,10 @@ def reproduce(out_dir, *, short: bool = False, progress: bool = False) -> dict:
         metrics[case]["pd"]["reaching_time_closed_form"] = reaching_time_closed_form(s0).tolist()
         metrics[case]["pd"]["reaching_time_held_control"] = reaching_time_held(s0).tolist()
     metrics["claims"] = claims(metrics)
+    if not short:
+        if progress:
+            print("[zhang2017] alpha study")
+        metrics["alpha_study"] = alpha_study()
     _write_figures(out, trajs)
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
     return metrics
