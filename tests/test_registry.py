@@ -109,11 +109,6 @@ def _relative_orbit_cases():
             _six_dof_states,
             "controller.k3",
         ),
-        "relative orbit + PD sliding mode (Zhang 2017 eq. 11)": (
-            lambda: zhang2017.build("pd"),
-            _relative_orbits,
-            "controller.surface.slope",
-        ),
         "Tschauner-Hempel + fractional PD^alpha on a CW model (Zhang 2017 eq. 17)": (
             lambda: ClosedLoop(
                 TschaunerHempel(7e6, 0.2),

@@ -92,24 +92,26 @@ def _settle(controller, horizon, tol, **gains):
 
 @pytest.mark.parametrize(
     ("controller", "horizon", "tol", "names"),
-    [("pd", 8.0, 10.0, ("slope", "k", "eps")), ("pd_alpha", 4.0, 40.0, ("alpha",))],
+    [("pd", 6.5, 10.0, ("slope", "k", "eps")), ("pd_alpha", 4.0, 40.0, ("alpha",))],
 )
 def test_gradients_of_the_convergence_time_match_finite_differences(
     controller, horizon, tol, names
 ):
     base = {"slope": 0.5, "k": 1.0, "eps": 0.3, "alpha": 0.8}
 
-    @jax.jit
     def time(values):
         return _settle(controller, horizon, tol, **{**base, **dict(zip(names, values))})
 
+    # One compiled program gives both the value and the derivative along a direction.
+    value_and_derivative = jax.jit(lambda x, v: jax.jvp(time, (x,), (v,)))
     x = jnp.array([base[n] for n in names])
-    grad = jax.jit(jax.grad(time))(x)
-    assert np.all(np.isfinite(grad))
     for i in range(len(names)):
-        step = 1e-5 * jnp.eye(len(names))[i]
-        fd = (time(x + step) - time(x - step)) / 2e-5
-        np.testing.assert_allclose(grad[i], fd, rtol=1e-3, atol=1e-6)
+        direction = jnp.eye(len(names))[i]
+        _, derivative = value_and_derivative(x, direction)
+        plus, _ = value_and_derivative(x + 1e-5 * direction, direction)
+        minus, _ = value_and_derivative(x - 1e-5 * direction, direction)
+        assert np.isfinite(derivative)
+        np.testing.assert_allclose(derivative, (plus - minus) / 2e-5, rtol=1e-3, atol=1e-6)
 
 
 @pytest.mark.parametrize(
