@@ -69,13 +69,15 @@ CONTROLLERS = ("pd", "pd_alpha")
 CASES = ("undisturbed", "disturbed")
 
 
-def disturbance() -> Sinusoid:
-    """Eq. (18): $0.2\\cos(2t)[1, 1, 1]$ m/s^2."""
-    return Sinusoid(0.2 * jnp.ones(3), 2.0, phase=math.pi / 2)
+def disturbance(amplitude: float = 0.2) -> Sinusoid:
+    r"""Eq. (18): $0.2\cos(2t)[1, 1, 1]$ m/s^2 (`amplitude` = 0.2)."""
+    return Sinusoid(amplitude * jnp.ones(3), 2.0, phase=math.pi / 2)
 
 
 def plant(disturbed: bool = False) -> RelativeOrbit:
-    return RelativeOrbit(SEMI_MAJOR_AXIS, 0.0, MU, disturbance() if disturbed else None)
+    """The nonlinear relative motion; the undisturbed case is the same signal with amplitude 0,
+    so both cases share one compiled program."""
+    return RelativeOrbit(SEMI_MAJOR_AXIS, 0.0, MU, disturbance(0.2 if disturbed else 0.0))
 
 
 def initial_state() -> RelativeOrbitState:
