@@ -159,7 +159,14 @@ def test_import_jaxatt_loads_the_core_only():
 def test_scenarios_follow_one_typed_protocol():
     from jaxatt.scenarios import REGISTRY, TUNING, Scenario, TuningProblem
 
-    assert set(REGISTRY) == {"rigid_body_pd", "chen2022", "yu2022"}
+    assert set(REGISTRY) == {
+        "rigid_body_pd",
+        "chen2022",
+        "yu2022",
+        "zhang2017",
+        "yue2018",
+        "flyaround",
+    }
     for name, scenario in REGISTRY.items():
         assert isinstance(scenario, Scenario) and scenario.name == name and scenario.title
         loop = scenario.build()
