@@ -159,13 +159,24 @@ def test_import_jaxatt_loads_the_core_only():
 def test_scenarios_follow_one_typed_protocol():
     from jaxatt.scenarios import REGISTRY, TUNING, Scenario, TuningProblem
 
-    assert set(REGISTRY) == {"rigid_body_pd", "chen2022", "yu2022"}
+    assert set(REGISTRY) == {
+        "rigid_body_pd",
+        "chen2022",
+        "yu2022",
+        "zhang2021",
+        "duan2024",
+        "shi2024",
+        "zhang2017",
+        "yue2018",
+        "flyaround",
+    }
     for name, scenario in REGISTRY.items():
         assert isinstance(scenario, Scenario) and scenario.name == name and scenario.title
         loop = scenario.build()
         assert isinstance(loop, jaxatt.AbstractClosedLoop)
         assert callable(scenario.reproduce) and callable(scenario.metrics)
-    assert isinstance(TUNING["chen2022"], TuningProblem)
+    assert set(TUNING) == {"chen2022", "zhang2021", "zhang2021-finite-time", "shi2024"}
+    assert all(isinstance(problem, TuningProblem) for problem in TUNING.values())
     assert "jaxatt.bench" not in sys.modules
     with pytest.raises(ImportError):  # benchmark kernels live in benchmarks/, not the wheel
         __import__("jaxatt.bench")

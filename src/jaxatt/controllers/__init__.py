@@ -15,10 +15,15 @@ from ._pose_sliding_mode import (
     POSE_COMPONENTS as POSE_COMPONENTS,
     PoseSlidingMode as PoseSlidingMode,
 )
+from ._proximity import ProximitySlidingMode as ProximitySlidingMode
 from ._robust import (
     AbstractRobustTerm as AbstractRobustTerm,
     AxisRobustTerm as AxisRobustTerm,
     NormRobustTerm as NormRobustTerm,
+)
+from ._six_dof import (
+    AdaptiveTerminalSixDof as AdaptiveTerminalSixDof,
+    SixDofAdaptiveState as SixDofAdaptiveState,
 )
 from ._sliding_mode import SlidingModeTracking as SlidingModeTracking
 from ._time_varying_sliding_mode import (
@@ -28,3 +33,8 @@ from ._time_varying_sliding_mode import (
     TimeVaryingSlidingModeState as TimeVaryingSlidingModeState,
 )
 from ._tracking import TrackingErrors as TrackingErrors, tracking_errors as tracking_errors
+from ._translational import (
+    FractionalSlidingMode as FractionalSlidingMode,
+    FractionalSlidingState as FractionalSlidingState,
+    TranslationalSlidingMode as TranslationalSlidingMode,
+)

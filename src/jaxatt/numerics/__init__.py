@@ -4,6 +4,15 @@ Every power, norm, sign and inverse cosine used by jaxatt goes through these hel
 gradients through a closed loop are finite wherever the mathematics allows (STYLE rule 7).
 """
 
+from ._fractional import (
+    FractionalMemory as FractionalMemory,
+    caputo as caputo,
+    grunwald_letnikov_weights as grunwald_letnikov_weights,
+    memory_derivative as memory_derivative,
+    memory_init as memory_init,
+    memory_push as memory_push,
+    riemann_liouville as riemann_liouville,
+)
 from ._linalg import det3 as det3, inv3 as inv3, solve3 as solve3, spectral_norm as spectral_norm
 from ._norm import safe_norm as safe_norm, safe_normalize as safe_normalize
 from ._power import abs_pow as abs_pow, sig_pow as sig_pow

@@ -14,6 +14,10 @@ Every function acts on ONE sample (a `(3,)` position, a scalar element); batch w
 - *Relative pose* (Zhang et al. 2021 eqs. 1-7): [`relative_pose_errors`][] gives the chaser's
   position, velocity, attitude and rate errors relative to a point fixed in a (tumbling)
   target's body frame, in chaser body axes.
+- *Relative motion* about a Keplerian target, in its Hill frame (x radial out, y along-track,
+  z orbit normal): [`relative_acceleration`][] (exact, any eccentricity, or linearised),
+  [`clohessy_wiltshire_stm`][] and [`tschauner_hempel_stm`][] (closed-form transitions),
+  [`hill_frame`][], [`inertial_to_hill`][], [`hill_to_inertial`][].
 """
 
 from ._constants import J2_EARTH as J2_EARTH, MU_EARTH as MU_EARTH, R_EARTH as R_EARTH
@@ -27,6 +31,20 @@ from ._elements import (
     true_to_mean_anomaly as true_to_mean_anomaly,
 )
 from ._gravity import j2_gravity as j2_gravity, point_mass_gravity as point_mass_gravity
+from ._relative_motion import (
+    anomaly_rates as anomaly_rates,
+    clohessy_wiltshire_stm as clohessy_wiltshire_stm,
+    coriolis_matrices as coriolis_matrices,
+    hill_frame as hill_frame,
+    hill_rotation as hill_rotation,
+    hill_to_inertial as hill_to_inertial,
+    inertial_to_hill as inertial_to_hill,
+    linear_relative_gravity as linear_relative_gravity,
+    relative_acceleration as relative_acceleration,
+    relative_gravity as relative_gravity,
+    semi_latus_rectum as semi_latus_rectum,
+    tschauner_hempel_stm as tschauner_hempel_stm,
+)
 from ._relative_pose import (
     PoseErrors as PoseErrors,
     relative_pose_errors as relative_pose_errors,

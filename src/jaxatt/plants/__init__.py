@@ -27,6 +27,15 @@ from ._flexible_slosh import (
     ModalAppendage as ModalAppendage,
     SloshPendulum as SloshPendulum,
 )
+from ._proximity import Proximity as Proximity, ProximityState as ProximityState
+from ._relative_orbit import (
+    AbstractRelativeOrbit as AbstractRelativeOrbit,
+    ClohessyWiltshire as ClohessyWiltshire,
+    RelativeOrbit as RelativeOrbit,
+    RelativeOrbitState as RelativeOrbitState,
+    TschaunerHempel as TschaunerHempel,
+    relative_orbit_state as relative_orbit_state,
+)
 from ._relative_pose import (
     POSE_GROUPS as POSE_GROUPS,
     CoupledAttitudeOrbit as CoupledAttitudeOrbit,
@@ -41,3 +50,4 @@ from ._rigid_body import (
     RigidBodyMRP as RigidBodyMRP,
     RigidBodyQuaternion as RigidBodyQuaternion,
 )
+from ._six_dof import SixDof as SixDof, SixDofState as SixDofState

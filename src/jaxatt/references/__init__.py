@@ -6,4 +6,11 @@ from ._base import (
     NoReference as NoReference,
 )
 from ._constant import ConstantAttitude as ConstantAttitude
+from ._fly_around import FlyAround as FlyAround, FlyAroundState as FlyAroundState
 from ._integrated import IntegratedReference as IntegratedReference
+from ._translation import (
+    ConstantPose as ConstantPose,
+    ConstantPosition as ConstantPosition,
+    PoseReference as PoseReference,
+    TranslationReference as TranslationReference,
+)

@@ -12,10 +12,13 @@ from . import (
     chen2022_two_phase_power as chen2022_two_phase_power,
     demo as demo,
     duan2024 as duan2024,
+    flyaround as flyaround,
     rigid_body_pd as rigid_body_pd,
     shi2024 as shi2024,
     shi2024_tuning as shi2024_tuning,
     yu2022_ftac_mrp as yu2022_ftac_mrp,
+    yue2018 as yue2018,
+    zhang2017 as zhang2017,
     zhang2021_hover as zhang2021_hover,
     zhang2021_tuning as zhang2021_tuning,
 )
@@ -31,6 +34,9 @@ REGISTRY: dict[str, Scenario] = {
         zhang2021_hover.SCENARIO,
         duan2024.SCENARIO,
         shi2024.SCENARIO,
+        zhang2017.SCENARIO,
+        yue2018.SCENARIO,
+        flyaround.SCENARIO,
     )
 }
 """Scenarios by CLI name (`jaxatt reproduce NAME`)."""

@@ -14,6 +14,7 @@ from ._closed_loop import (
     ClosedLoopState as ClosedLoopState,
     HeldOutputs as HeldOutputs,
 )
+from ._energy_meter import EnergyMeter as EnergyMeter, EnergyMeterState as EnergyMeterState
 from ._loop import integrate as integrate
 from ._performance import (
     SCALARIZE_FROM as SCALARIZE_FROM,

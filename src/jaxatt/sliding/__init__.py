@@ -2,3 +2,9 @@
 
 from ._base import AbstractSlidingSurface as AbstractSlidingSurface
 from ._linear import LinearSurface as LinearSurface
+from ._vector import (
+    FractionalSurface as FractionalSurface,
+    FractionalSurfaceState as FractionalSurfaceState,
+    PDSurface as PDSurface,
+    TerminalSurface as TerminalSurface,
+)

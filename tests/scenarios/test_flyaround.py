@@ -1,0 +1,67 @@
+"""Fly-around (SPEC 001(a)): the reference's frame and rates against finite differences of its
+own attitude, the short reproduction with its Monte Carlo, bad input."""
+
+import numpy as np
+import pytest
+
+from jaxatt.orbits import OrbitalElements, kepler_propagate
+from jaxatt.rotations import quat_to_dcm, vee
+from jaxatt.scenarios import flyaround
+
+
+@pytest.fixture(scope="module")
+def short(tmp_path_factory):
+    out = tmp_path_factory.mktemp("flyaround")
+    return out, flyaround.reproduce(out, short=True)
+
+
+def test_short_fly_around_converges_and_every_dispersed_start_does_too(short):
+    out, m = short
+    nominal, mc = m["nominal"], m["monte_carlo"]
+    assert nominal["status"] == 0
+    assert nominal["position_settle_time_0.1m"] < 200.0
+    assert nominal["pointing_settle_time_1deg"] < 150.0
+    assert nominal["max_position_error_after_190s"] < 0.05
+    assert nominal["max_pointing_error_deg_after_190s"] < 0.1
+    assert mc["successful"] == mc["samples"] == flyaround.SHORT_MC_SAMPLES
+    assert mc["worst_position_settle_time"] < 250.0
+    assert mc["worst_max_pointing_error_deg_after_190s"] < 0.1
+    assert (out / "fig_flyaround.png").exists()
+
+
+def test_reference_geometry_and_rates_match_finite_differences():
+    ref = flyaround.reference()
+    target = OrbitalElements(
+        flyaround.A, flyaround.E, flyaround.INCLINATION, flyaround.RAAN, flyaround.ARGP, 0.0
+    )
+    state0 = ref.init(0.0)
+
+    def output(t):
+        theta = kepler_propagate(target, t).nu  # the anomaly the reference integrates
+        return ref(t, type(state0)(theta, state0.q_last))[0]
+
+    for t in (0.0, 137.0, 900.0):
+        out = output(t)
+        rho = np.asarray(out.translation.position)
+        np.testing.assert_allclose(np.linalg.norm(rho), flyaround.RADIUS, rtol=1e-12)
+        np.testing.assert_allclose(rho @ np.asarray(ref.normal), 0.0, atol=1e-10)
+        h = 1e-3
+        d = [output(t + s) for s in (-h, h)]
+        c = np.asarray(quat_to_dcm(out.attitude.q_d))
+        c_dot = (
+            np.asarray(quat_to_dcm(d[1].attitude.q_d)) - np.asarray(quat_to_dcm(d[0].attitude.q_d))
+        ) / (2 * h)
+        # C' = -[w x] C  =>  w = vee(-C' C^T)
+        np.testing.assert_allclose(vee(-c_dot @ c.T), out.attitude.omega_d, atol=1e-8)
+        w_dot = (np.asarray(d[1].attitude.omega_d) - np.asarray(d[0].attitude.omega_d)) / (2 * h)
+        np.testing.assert_allclose(out.attitude.omega_d_dot, w_dot, atol=1e-10)
+        v = (np.asarray(d[1].translation.position) - np.asarray(d[0].translation.position)) / (
+            2 * h
+        )
+        np.testing.assert_allclose(out.translation.velocity, v, rtol=1e-6, atol=1e-9)
+
+
+@pytest.mark.parametrize("radius", [0.0, -5.0])
+def test_fly_around_radius_must_be_positive(radius):
+    with pytest.raises(ValueError, match="`radius` must be positive"):
+        flyaround.reference(radius=radius)
