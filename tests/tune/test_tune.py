@@ -152,6 +152,14 @@ def test_tuning_into_divergence_stops_with_a_clear_error_and_a_good_checkpoint(t
     _, aux = tune.evaluate(tune.apply(loop, params, saved.unconstrained), objective, x0s)
     assert np.all(np.asarray(aux["status"]) == jaxatt.Status.nonfinite_state)
     assert np.all(np.asarray(aux["objective_time"]) == np.inf)
+    # on_nonfinite="stop": the same run returns the last good step instead of raising.
+    result = tune.tune(loop, params, objective, x0s, steps=5, optimizer=push, progress=False,
+                       on_nonfinite="stop")
+    assert result.steps == 2 and "at step 3" in result.stopped
+    assert float(result.gains["kd"]) == pytest.approx(float(gains["kd"]))
+    assert result.losses.shape == (2,) and np.all(np.isfinite(result.losses))
+    with pytest.raises(ValueError, match="on_nonfinite"):
+        tune.tune(loop, params, objective, x0s, steps=5, progress=False, on_nonfinite="skip")
 
 
 def test_interrupted_run_resumes_bit_identically(tmp_path):

@@ -61,6 +61,9 @@ class TuneResult:
     - `gains` / `initial_gains`: name -> value (NumPy).
     - `losses`: the loss at each completed step, evaluated before that step's update.
     - `steps`: number of completed steps (including those before a resume).
+    - `stopped`: `None` for a run that completed its steps; with `on_nonfinite="stop"`, the
+      message of the [`NonFiniteLossError`][] that ended it early (the gains are those of the
+      last good step).
     """
 
     module: PyTree
@@ -68,6 +71,7 @@ class TuneResult:
     initial_gains: dict[str, np.ndarray]
     losses: np.ndarray
     steps: int
+    stopped: str | None = None
 
 
 _DEFAULT_OPTIMIZER = optax.adam(0.05)
@@ -139,6 +143,7 @@ def tune(
     resume: bool = False,
     progress: bool = True,
     callback: Callable[[int, float, dict], None] | None = None,
+    on_nonfinite: str = "raise",
 ) -> TuneResult:
     """Tune the `parameters` of `template` by gradient descent on `objective(module, inputs)`.
 
@@ -155,6 +160,10 @@ def tune(
       an uninterrupted one (same inputs, same optimizer; XLA:CPU is deterministic).
     - `progress`: tqdm progress bar with the current loss.
     - `callback`: called as `callback(step, loss, aux)` after every step.
+    - `on_nonfinite`: `"raise"` (default) raises [`NonFiniteLossError`][] when a step's loss or
+      gradient is not finite; `"stop"` ends the run there and returns the last good step's
+      result with the error's message in `TuneResult.stopped` (for a batch script that must
+      report what it reached, e.g. when a step would push a sample across a constraint).
 
     **Returns:** a [`TuneResult`][].
 
@@ -187,6 +196,8 @@ def tune(
         )
     if resume and checkpoint is None:
         raise ValueError("tune: `resume=True` needs a `checkpoint` path.")
+    if on_nonfinite not in ("raise", "stop"):
+        raise ValueError(f"tune: `on_nonfinite` must be 'raise' or 'stop', got {on_nonfinite!r}.")
     check_parameters(template, parameters)
     _check_inputs(objective, template, inputs)
     if optimizer is None:
@@ -208,6 +219,7 @@ def tune(
             save_checkpoint(checkpoint, state)
 
     start = int(state.step)
+    stopped = None
     bar = tqdm(total=steps, initial=start, desc="tune", disable=not progress)
     try:
         for k in range(start, steps):
@@ -219,9 +231,13 @@ def tune(
             if not math.isfinite(loss_value) or bad:
                 write(state)  # the last good step, never the failing one
                 gains_now = constrained(state.unconstrained, parameters)
-                raise NonFiniteLossError(
+                error = NonFiniteLossError(
                     k + 1, loss_value, bad, {n: np.asarray(v) for n, v in gains_now.items()}
                 )
+                if on_nonfinite == "raise":
+                    raise error
+                stopped = str(error)
+                break
             u, opt_state = _update(state.unconstrained, state.opt_state, grads, optimizer)
             state = TuneState(
                 step=jnp.array(k + 1),
@@ -248,6 +264,7 @@ def tune(
         initial_gains=initial_gains,
         losses=np.asarray(state.losses[: int(state.step)]),
         steps=int(state.step),
+        stopped=stopped,
     )
 
 
