@@ -3,7 +3,7 @@
 The top level exports the verbs and containers; components live in sub-packages:
 `jaxatt.numerics`, `jaxatt.rotations`, `jaxatt.signals`, `jaxatt.references`,
 `jaxatt.orbits`, `jaxatt.plants`, `jaxatt.sliding`, `jaxatt.reaching`, `jaxatt.performance`,
-`jaxatt.networks`, `jaxatt.controllers`,
+`jaxatt.networks`, `jaxatt.safety`, `jaxatt.shaping`, `jaxatt.controllers`,
 `jaxatt.observers`, `jaxatt.simulation` (the closed-loop contract, actuators, solvers),
 `jaxatt.metrics`, `jaxatt.montecarlo`. `jaxatt.tune` (optax), `jaxatt.plot` (matplotlib) and
 the applications in `jaxatt.scenarios` load on first use: `import jaxatt` imports the core
@@ -29,6 +29,8 @@ from . import (
     reaching as reaching,
     references as references,
     rotations as rotations,
+    safety as safety,
+    shaping as shaping,
     signals as signals,
     simulation as simulation,
     sliding as sliding,
