@@ -88,7 +88,7 @@ class PoseSlidingMode(AbstractController):
         model: RelativePoseModel,
         envelope: AbstractPerformance | None = None,
         *,
-        rate_term: Literal["corrected", "literal"] = "corrected",
+        rate_term: str = "corrected",
     ):
         where = "PoseSlidingMode"
         self.surface_gain = check_gain_shape(
