@@ -151,13 +151,11 @@ class PoseSlidingMode(AbstractController):
         feedforward = sign * second.beta * e2 * rho_dot[6:] / rho[6:]
         return first.kappa, first.kappa_dot, second.kappa, second.beta, feedforward
 
-    def __call__(
-        self, t: RealScalarLike, measurement: RelativePoseState, reference, state: None
-    ) -> tuple[Float[Array, "6"], None]:
-        del reference, state
-        kappa1, kappa1_dot, kappa2, beta2, feedforward = self._parts(t, measurement)
+    def _control(self, t, x: RelativePoseState) -> tuple[Float[Array, "6"], Float[Array, "6"]]:
+        """The control $u$ and the sliding variable $s$."""
+        kappa1, kappa1_dot, kappa2, beta2, feedforward = self._parts(t, x)
         s = self.surface_gain * kappa1 + kappa2
-        force, torque = self.model.drift(t, measurement)
+        force, torque = self.model.drift(t, x)
         b = jnp.concatenate([force, torque])
         c_inv = self.model.inverse_inertia()
         gain = beta2[:, None] * c_inv  # beta2 C^{-1}
@@ -172,7 +170,13 @@ class PoseSlidingMode(AbstractController):
         )
         v = inner / beta2
         u = jnp.concatenate([self.model.chaser_mass * v[:3], self.model.chaser_inertia @ v[3:]])
-        return u, None
+        return u, s
+
+    def __call__(
+        self, t: RealScalarLike, measurement: RelativePoseState, reference, state: None
+    ) -> tuple[Float[Array, "6"], None]:
+        del reference, state
+        return self._control(t, measurement)[0], None
 
     def admissible(
         self, t: RealScalarLike, measurement: RelativePoseState, reference, state: None
@@ -210,9 +214,9 @@ class PoseSlidingMode(AbstractController):
     def signals(
         self, t: RealScalarLike, measurement: RelativePoseState, reference, state: None
     ) -> dict[str, Array]:
-        u, _ = self(t, measurement, reference, state)
-        kappa1, _, kappa2, _, _ = self._parts(t, measurement)
-        out = {"s": self.surface_gain * kappa1 + kappa2, "force": u[:3], "torque": u[3:]}
+        del reference, state
+        u, s = self._control(t, measurement)
+        out = {"s": s, "force": u[:3], "torque": u[3:]}
         if self.envelope is not None:
             rho, _ = self.envelope_at(t)
             pose = jnp.concatenate([measurement.e1, measurement.e2])
