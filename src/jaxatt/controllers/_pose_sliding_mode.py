@@ -196,8 +196,6 @@ class PoseSlidingMode(AbstractController):
         rho = np.asarray(self.envelope_at(t0)[0])
         pose = np.concatenate([np.asarray(measurement.e1), np.asarray(measurement.e2)], axis=-1)
         bad = np.abs(pose) >= rho
-        if pose.ndim > 1:
-            bad = bad.reshape(-1, 12)
         if np.any(bad):
             flat = bad.reshape(-1, 12)
             samples = np.flatnonzero(np.any(flat, axis=1))

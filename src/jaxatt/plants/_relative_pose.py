@@ -190,10 +190,6 @@ class RelativePoseModel(eqx.Module):
         zero = Constant(jnp.zeros_like(self.offset))
         return eqx.tree_at(lambda m: (m.target_force, m.target_torque), self, (zero, zero))
 
-    def target_rate(self, state: RelativePoseState) -> Vec3:
-        """$\\omega_t$ [rad/s] in target axes."""
-        return state.target.rate
-
     def chaser_rate(self, state: RelativePoseState) -> Vec3:
         """$\\omega_p = \\omega_e + P_e\\omega_t$ [rad/s] in chaser axes."""
         return state.rate + mrp_to_dcm(state.attitude) @ state.target.rate

@@ -260,24 +260,12 @@ class SettlingObjective(AbstractObjective):
         return self.sample_metrics["objective_time"].tolerance
 
     def check(self, closed_loop: AbstractClosedLoop, x0s: PyTree) -> None:
-        if not isinstance(closed_loop, AbstractClosedLoop):
-            raise ValueError(
-                "SettlingObjective: the tuned module must be a jaxatt closed loop, got "
-                f"{type(closed_loop).__name__}."
-            )
-        n = _batch_size(x0s)
-        closed_loop.check_state(x0s, "inputs", (n,))
+        _check_batch("SettlingObjective", closed_loop, x0s)
 
     def batch_metrics(self, closed_loop: AbstractClosedLoop, x0s: PyTree) -> dict[str, Array]:
         """Per-sample metrics over a batch (the leading axis of `x0s`)."""
-        sim = self.simulation.with_performance(
-            self.simulation.performance.resolve(_batch_size(x0s))
-        )
-        result = run_batch(closed_loop, x0s, sim, self.sample_metrics)
-        metrics = dict(result.metrics)
-        metrics["successful"] = result.successful
-        metrics["settled"] = result.successful & jnp.isfinite(metrics["settling_time"])
-        metrics["status"] = result.status
+        metrics = _run_metrics(self.simulation, closed_loop, x0s, self.sample_metrics)
+        metrics["settled"] = metrics["successful"] & jnp.isfinite(metrics["settling_time"])
         return metrics
 
     def __call__(self, closed_loop: AbstractClosedLoop, x0s: PyTree):
@@ -367,26 +355,15 @@ class MetricObjective(AbstractObjective):
         self.aggregate = Mean() if aggregate is None else aggregate
 
     def check(self, closed_loop: AbstractClosedLoop, x0s: PyTree) -> None:
-        if not isinstance(closed_loop, AbstractClosedLoop):
-            raise ValueError(
-                "MetricObjective: the tuned module must be a jaxatt closed loop, got "
-                f"{type(closed_loop).__name__}."
-            )
-        closed_loop.check_state(x0s, "inputs", (_batch_size(x0s),))
+        _check_batch("MetricObjective", closed_loop, x0s)
 
     def batch_metrics(self, closed_loop: AbstractClosedLoop, x0s: PyTree) -> dict[str, Array]:
         """Per-sample metrics over a batch (the leading axis of `x0s`)."""
-        sim = self.simulation.with_performance(
-            self.simulation.performance.resolve(_batch_size(x0s))
-        )
-        result = run_batch(closed_loop, x0s, sim, self.times | self.limits)
-        metrics = dict(result.metrics)
+        metrics = _run_metrics(self.simulation, closed_loop, x0s, self.times | self.limits)
         n = _batch_size(x0s)
         metrics["objective_time"] = sum(
             jnp.sum(metrics[name].reshape(n, -1), axis=1) for name in self.times
         )
-        metrics["successful"] = result.successful
-        metrics["status"] = result.status
         return metrics
 
     def __call__(self, closed_loop: AbstractClosedLoop, x0s: PyTree):
@@ -395,6 +372,29 @@ class MetricObjective(AbstractObjective):
         for penalty in self.penalties:
             loss = loss + penalty(metrics)
         return loss, metrics
+
+
+def _check_batch(where: str, closed_loop: AbstractClosedLoop, x0s: PyTree) -> None:
+    """The host-side check of both objectives: a closed loop and a valid batch of states."""
+    if not isinstance(closed_loop, AbstractClosedLoop):
+        raise ValueError(
+            f"{where}: the tuned module must be a jaxatt closed loop, got "
+            f"{type(closed_loop).__name__}."
+        )
+    closed_loop.check_state(x0s, "inputs", (_batch_size(x0s),))
+
+
+def _run_metrics(
+    simulation: Simulation, closed_loop: AbstractClosedLoop, x0s: PyTree, metrics: dict
+) -> dict[str, Array]:
+    """Per-sample `metrics` plus `successful` and `status`, from the Monte Carlo batch runner
+    with the performance options resolved for the batch size."""
+    sim = simulation.with_performance(simulation.performance.resolve(_batch_size(x0s)))
+    result = run_batch(closed_loop, x0s, sim, metrics)
+    out = dict(result.metrics)
+    out["successful"] = result.successful
+    out["status"] = result.status
+    return out
 
 
 def _batch_size(tree: PyTree) -> int:
