@@ -6,7 +6,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxatt.controllers import AdaptiveTanhMRP, AdaptiveTanhQuaternion
+from jaxatt.controllers import AdaptiveBoundState, AdaptiveTanhMRP, AdaptiveTanhQuaternion
 from jaxatt.metrics import chattering
 from jaxatt.plants import MRPState, QuaternionState, RigidBodyMRP, RigidBodyQuaternion, Sinusoid
 from jaxatt.reaching import Sign, Tanh
@@ -77,9 +77,7 @@ def test_nominal_sliding_dynamics_are_exact(kind):
         plant = type(_x0(kind))(attitude, 0.2 * jax.random.normal(k2, (3,)))
         q_d = jax.random.normal(k3, (4,))
         d_hat = jnp.asarray(0.3 * (seed + 1))
-        y = ClosedLoopState(
-            plant, q_d / jnp.linalg.norm(q_d), type(loop.init(0.0, plant).controller)(d_hat)
-        )
+        y = ClosedLoopState(plant, q_d / jnp.linalg.norm(q_d), AdaptiveBoundState(d_hat))
         s, s_dot, d_hat, d_hat_dot = _sliding_dynamics(loop, jnp.asarray(1.1 + seed), y)
         switch = jnp.tanh(s / 0.05)
         expected = -GAINS["gain"] * s - d_hat * switch
