@@ -1,7 +1,21 @@
 """Control laws. Paper variants are instances of these classes, never copies."""
 
+from ._adaptive_tanh import (
+    AbstractAdaptiveTanhSlidingMode as AbstractAdaptiveTanhSlidingMode,
+    AdaptiveBoundState as AdaptiveBoundState,
+    AdaptiveTanhMRP as AdaptiveTanhMRP,
+    AdaptiveTanhQuaternion as AdaptiveTanhQuaternion,
+)
 from ._base import AbstractController as AbstractController
 from ._consensus import TwoLayerConsensus as TwoLayerConsensus
+from ._decoupling import (
+    AbstractDecoupledLaw as AbstractDecoupledLaw,
+    DecoupledPD as DecoupledPD,
+    DecoupledSlidingMode as DecoupledSlidingMode,
+    FeedbackLinearization as FeedbackLinearization,
+    decoupling_drift as decoupling_drift,
+    decoupling_matrix as decoupling_matrix,
+)
 from ._finite_time import (
     FiniteTimeMRP as FiniteTimeMRP,
     RateBarrierState as RateBarrierState,

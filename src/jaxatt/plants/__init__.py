@@ -21,6 +21,7 @@ from ._beam import (
     mode_curvature as mode_curvature,
     mode_shape as mode_shape,
 )
+from ._euler_angles import EulerAngleState as EulerAngleState, RigidBodyEuler as RigidBodyEuler
 from ._flexible_slosh import (
     FlexibleSloshSpacecraft as FlexibleSloshSpacecraft,
     FlexibleSloshState as FlexibleSloshState,

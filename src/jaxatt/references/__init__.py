@@ -6,6 +6,10 @@ from ._base import (
     NoReference as NoReference,
 )
 from ._constant import ConstantAttitude as ConstantAttitude
+from ._euler import (
+    EulerAngleCommand as EulerAngleCommand,
+    EulerAngleTrajectory as EulerAngleTrajectory,
+)
 from ._fly_around import FlyAround as FlyAround, FlyAroundState as FlyAroundState
 from ._integrated import IntegratedReference as IntegratedReference
 from ._translation import (

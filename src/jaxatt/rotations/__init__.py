@@ -33,6 +33,9 @@ its singular points.
   (no canonicalization, $\|\sigma\| > 1$ when $q_0 < 0$); [`mrp_switch`][] picks
   $\|\sigma\| \le 1$. MRP kinematics: $\dot\sigma = G(\sigma)\,\omega$,
   $G(\sigma) = \tfrac14[(1 - \sigma^\top\sigma) I_3 + 2[\sigma\times] + 2\sigma\sigma^\top]$.
+- *Euler angles* (3-2-1, roll-pitch-yaw, ordered $(\phi, \theta, \psi)$):
+  $C_{BN} = R_1(\phi)R_2(\theta)R_3(\psi)$, kinematics $\dot a = R(\phi, \theta)\omega$,
+  singular at $\cos\theta = 0$ (see `jaxatt.rotations._euler`).
 - *Tracking errors* (SPEC seed 000 eqs. 7-10): $e = q_d^{-1} \otimes q$ is the attitude of
   B relative to the desired frame D, $e_\omega = \omega - C(e)\,\omega_d$ with
   $C(e) = C_{BD}$ = `quat_to_dcm(e)` mapping desired-frame to body-frame components; the MRP
@@ -44,6 +47,14 @@ from ._errors import (
     attitude_error_quat as attitude_error_quat,
     rate_error as rate_error,
     rate_error_mrp as rate_error_mrp,
+)
+from ._euler import (
+    euler321_body_rates as euler321_body_rates,
+    euler321_from_dcm as euler321_from_dcm,
+    euler321_kinematics as euler321_kinematics,
+    euler321_kinematics_matrix as euler321_kinematics_matrix,
+    euler321_to_dcm as euler321_to_dcm,
+    euler321_to_quat as euler321_to_quat,
 )
 from ._mrp import (
     mrp_compose as mrp_compose,
