@@ -169,6 +169,7 @@ def test_scenarios_follow_one_typed_protocol():
         "zhang2017",
         "yue2018",
         "flyaround",
+        "wu2018",
     }
     for name, scenario in REGISTRY.items():
         assert isinstance(scenario, Scenario) and scenario.name == name and scenario.title

@@ -35,6 +35,10 @@ from ._robust import (
     AxisRobustTerm as AxisRobustTerm,
     NormRobustTerm as NormRobustTerm,
 )
+from ._safe_approach import (
+    SafeApproachSlidingMode as SafeApproachSlidingMode,
+    SafeApproachState as SafeApproachState,
+)
 from ._six_dof import (
     AdaptiveTerminalSixDof as AdaptiveTerminalSixDof,
     SixDofAdaptiveState as SixDofAdaptiveState,

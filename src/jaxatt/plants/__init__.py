@@ -33,6 +33,7 @@ from ._relative_orbit import (
     AbstractRelativeOrbit as AbstractRelativeOrbit,
     ClohessyWiltshire as ClohessyWiltshire,
     RelativeOrbit as RelativeOrbit,
+    RelativeOrbitJ2 as RelativeOrbitJ2,
     RelativeOrbitState as RelativeOrbitState,
     TschaunerHempel as TschaunerHempel,
     relative_orbit_state as relative_orbit_state,

@@ -30,12 +30,19 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
-from .._validation import check, check_batched_shape, check_positive, check_tree_finite
+from .._validation import (
+    check,
+    check_batched_shape,
+    check_finite,
+    check_positive,
+    check_tree_finite,
+)
 from ..metrics import AbstractMetric, Effort, Peak, SettlingTime
-from ..orbits import MU_EARTH
+from ..orbits import MU_EARTH, j2_gravity
 from ..orbits._relative_motion import (
     anomaly_rates,
     coriolis_matrices,
+    hill_rotation,
     linear_relative_gravity,
     relative_gravity,
 )
@@ -180,6 +187,48 @@ class RelativeOrbit(AbstractRelativeOrbit):
 
     def gravity(self, theta, rho):
         return relative_gravity(theta, rho, self.a, self.e, self.mu)
+
+
+class RelativeOrbitJ2(AbstractRelativeOrbit):
+    r"""[`RelativeOrbit`][] with the $J_2$ perturbation acting on the chaser only.
+
+    $g = g_{\text{Kepler}}(\theta, \rho) + C_{HN}\,a_{J_2}(C_{HN}^T[r_t + x, y, z])$: the target
+    stays Keplerian (its orbit defines the Hill frame and $\theta$), the chaser feels the
+    Earth's oblateness ([`jaxatt.orbits.j2_gravity`][], spin axis along inertial $z$). This is
+    Wu et al. 2018's disturbance force "J2 only" (SPEC 001(c)); a controller that models the
+    plain [`RelativeOrbit`][] sees $a_{J_2}$ ($\approx 10^{-2}$ m/s$^2$ in LEO) as a disturbance.
+
+    **Arguments:** `a` [m], `e`, `i`, `raan`, `argp` [rad] of the target's orbit, `mu`,
+    `disturbance` as [`RelativeOrbit`][].
+    """
+
+    a: Float[Array, ""]
+    e: Float[Array, ""]
+    mu: Float[Array, ""]
+    i: Float[Array, ""]
+    raan: Float[Array, ""]
+    argp: Float[Array, ""]
+    disturbance: AbstractSignal
+
+    def __init__(self, a, e=0.0, i=0.0, raan=0.0, argp=0.0, mu=MU_EARTH, disturbance=None):
+        self.a, self.e, self.mu = check_target_orbit("RelativeOrbitJ2", a, e, mu)
+        self.i, self.raan, self.argp = (
+            check_finite("RelativeOrbitJ2", n, v)
+            for n, v in (("i", i), ("raan", raan), ("argp", argp))
+        )
+        self.disturbance = _disturbance("RelativeOrbitJ2", disturbance)
+
+    def j2_acceleration(self, theta, rho) -> Float[Array, "3"]:
+        """The chaser's $J_2$ acceleration in Hill components [m/s^2]."""
+        r_t, _, _ = anomaly_rates(theta, self.a, self.e, self.mu)
+        c_hn = hill_rotation(theta, self.i, self.raan, self.argp)
+        chaser = c_hn.T @ (jnp.asarray(rho) + jnp.stack([r_t, 0.0 * r_t, 0.0 * r_t]))
+        return c_hn @ j2_gravity(chaser, self.mu)
+
+    def gravity(self, theta, rho):
+        return relative_gravity(theta, rho, self.a, self.e, self.mu) + self.j2_acceleration(
+            theta, rho
+        )
 
 
 class TschaunerHempel(AbstractRelativeOrbit):

@@ -201,15 +201,22 @@ class CollisionAvoidance(eqx.Module):
     def a2(self) -> float:
         return self.blend.a2
 
-    def __call__(self, position: Float[ArrayLike, "3"]) -> Float[Array, ""]:
-        """$h(P)$ [m$^4$] at one position (vmap for batches); $h > 0$ is safe."""
+    def factors(self, position: Float[ArrayLike, "3"]) -> tuple[Float[Array, ""], Float[Array, ""]]:
+        r"""The outer and corridor factors $(O, C)$ [m$^2$] at one position; beyond $x = a_2$
+        both are continued by $\bar C$, so $h = O\,C + \beta\max(0, x - a_2)^2$ everywhere."""
         p = jnp.asarray(position)
         x, r2 = p[0], p[1] ** 2 + p[2] ** 2
         a1, a2 = self.a1, self.a2
         outer = jnp.where(x <= a1, self.sphere.factor(x, r2), r2 + self.blend(jnp.clip(x, a1, a2)))
         inner = r2 - self.corridor.profile(jnp.minimum(x, a2))
         beyond = r2 - float(self.corridor.profile(a2)) - float(self.corridor.slope(a2)) * (x - a2)
-        return jnp.where(x <= a2, outer * inner, beyond**2 + self.beta * (x - a2) ** 2)
+        return jnp.where(x <= a2, outer, beyond), jnp.where(x <= a2, inner, beyond)
+
+    def __call__(self, position: Float[ArrayLike, "3"]) -> Float[Array, ""]:
+        """$h(P)$ [m$^4$] at one position (vmap for batches); $h > 0$ is safe."""
+        outer, inner = self.factors(position)
+        past = jnp.maximum(jnp.asarray(position)[0] - self.a2, 0.0)
+        return outer * inner + self.beta * past**2
 
     def gradient(self, position: Float[ArrayLike, "3"]) -> Float[Array, "3"]:
         r"""$\nabla h$ [m$^3$] by autodiff."""

@@ -16,6 +16,7 @@ from . import (
     rigid_body_pd as rigid_body_pd,
     shi2024 as shi2024,
     shi2024_tuning as shi2024_tuning,
+    wu2018 as wu2018,
     yu2022_ftac_mrp as yu2022_ftac_mrp,
     yue2018 as yue2018,
     zhang2017 as zhang2017,
@@ -37,6 +38,7 @@ REGISTRY: dict[str, Scenario] = {
         zhang2017.SCENARIO,
         yue2018.SCENARIO,
         flyaround.SCENARIO,
+        wu2018.SCENARIO,
     )
 }
 """Scenarios by CLI name (`jaxatt reproduce NAME`)."""

@@ -1,0 +1,155 @@
+"""Wu, Song & Sun 2018 (SPEC 001(c), reconstructed): the properties the paper states (safety,
+convergence, bounded inputs), the law's exact reaching dynamics, bad input."""
+
+import json
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxatt.controllers import SafeApproachSlidingMode
+from jaxatt.numerics import sig_pow
+from jaxatt.orbits import anomaly_rates, hill_rotation, j2_gravity
+from jaxatt.plants import RelativeOrbit, RelativeOrbitJ2
+from jaxatt.scenarios import wu2018
+from jaxatt.simulation import ClosedLoop
+
+
+@pytest.fixture(scope="module")
+def short(tmp_path_factory):
+    out = tmp_path_factory.mktemp("wu2018")
+    return out, wu2018.reproduce(out, short=True)
+
+
+def test_blend_coefficients_round_to_the_printed_ones(short):
+    _, metrics = short
+    for ours, printed in zip(metrics["blend_coefficients"], metrics["printed_c"]):
+        unit = 10.0 ** (np.floor(np.log10(abs(printed))) - 3)  # the 4th significant digit
+        assert abs(ours - printed) <= 1.1 * unit
+
+
+def test_both_cases_stay_safe_converge_and_respect_the_limits(short):
+    out, metrics = short
+    assert json.loads((out / "metrics.json").read_text())["case1"] == metrics["case1"]
+    for case in ("case1", "case2"):
+        m = metrics[case]
+        assert m["result"] == "successful"
+        assert m["min_h"] > 0.0
+        assert m["min_distance_to_target"] > 4.9
+        assert m["final_position_error"] < 1e-3
+        assert m["attitude_settle_time"] < 20.0
+        assert m["peak_force"] <= wu2018.FORCE_LIMIT * (1 + 1e-12)
+        assert m["peak_torque"] <= wu2018.TORQUE_LIMIT * (1 + 1e-12)
+        assert 0.0 < m["eta_peak"] < 5.0  # the anti-windup state is used, and bounded
+        assert np.isfinite(m["dm_hat_final"]) and m["dm_hat_change_last_50s"] < 1e-3
+    assert (out / "trajectories.png").exists() and (out / "errors_inputs.png").exists()
+
+
+def test_without_avoidance_case2_enters_the_keep_out_set(short):
+    _, metrics = short
+    without = metrics["case2"]["without_avoidance"]
+    assert without["enters_keep_out"] and without["min_h"] < 0.0
+    assert 0.0 < without["entry_time"] < wu2018.HORIZON
+    # Case 1 starts inside the corridor and flies straight down it: safe either way.
+    assert not metrics["case1"]["without_avoidance"]["enters_keep_out"]
+
+
+def test_monte_carlo_reports_every_sample_safe_and_converged(short):
+    _, metrics = short
+    for group in ("corridor", "outside"):
+        mc = metrics["monte_carlo"][group]
+        assert mc["samples"] == wu2018.SHORT_MC_SAMPLES // 2
+        assert mc["fraction_safe"] == 1.0 and mc["min_h"] > 0.0
+        assert mc["fraction_converged"] == 1.0
+        assert mc["peak_force"] <= wu2018.FORCE_LIMIT * (1 + 1e-12)
+
+
+def test_a_sample_that_enters_the_keep_out_set_is_reported_not_nan():
+    traj = wu2018.simulate_batch([wu2018.CASES["case2"]], avoidance=False, horizon=40.0)
+    summary = wu2018.monte_carlo_summary(traj, np.asarray([wu2018.CASES["case2"]]))
+    assert summary["fraction_safe"] == 0.0
+    assert summary["results"] == {"constraint_violated": 1}
+    assert np.isfinite(summary["min_h"]) and summary["min_h"] < 0.0
+    assert np.all(np.isfinite(np.asarray(traj.states.plant.orbit.rho)))
+
+
+def test_unsaturated_law_meets_its_reaching_dynamics_exactly():
+    """Along the closed loop (the plant is the law's model, limits out of reach), the surface
+    obeys s' = -k_s z - k3 sig^g(z) - d_hat tanh(z/eps) with z = s - eta exactly, with the
+    barrier active (Case 1's start, 0.28 m from the corridor wall), so the barrier's rate
+    term (its Hessian along the velocity) is right."""
+    controller = wu2018.controller(force_limit=1e9, torque_limit=1e9)
+    loop = ClosedLoop(wu2018.plant(j2=False), controller, wu2018.build().reference)
+    x0 = wu2018.initial_state(wu2018.CASES["case1"])
+    x0 = eqx_replace_velocity(x0, jnp.array([-0.3, 0.05, -0.02]))
+    y0 = loop.init(0.0, x0)
+    state = y0.controller
+    state = type(state)(
+        type(state.translation)(
+            state.translation.integral, jnp.array([0.01, -0.02, 0.005]), jnp.asarray(0.3)
+        ),
+        state.attitude,
+    )
+    y0 = type(y0)(y0.plant, y0.reference, state, y0.observer, y0.actuator)
+    t = 3.0
+
+    def surface(y):
+        ref, _ = loop.reference(t, y.reference)
+        return controller.signals(t, y.plant, ref, y.controller)["s_translation"]
+
+    s, s_dot = jax.jvp(surface, (y0,), (loop.vector_field(t, y0, None),))
+    z = s - state.translation.eta
+    b = controller.barrier(x0.orbit.rho)
+    assert float(jnp.linalg.norm(b)) > 1.0  # the barrier is active here
+    d_hat = state.translation.d_hat
+    expected = (
+        -controller.k_s * z
+        - controller.k3 * sig_pow(z, controller.gamma)
+        - d_hat * jnp.tanh(z / controller.epsilon)
+    )
+    np.testing.assert_allclose(s_dot, expected, rtol=1e-9, atol=1e-12)
+
+
+def eqx_replace_velocity(x0, velocity):
+    orbit = x0.orbit
+    return type(x0)(type(orbit)(orbit.theta, orbit.rho, velocity), x0.attitude)
+
+
+def test_j2_component_adds_the_chasers_j2_acceleration_in_hill_axes():
+    j2 = RelativeOrbitJ2(**wu2018.ORBIT)
+    kepler = RelativeOrbit(wu2018.ORBIT["a"], wu2018.ORBIT["e"])
+    theta, rho = 0.7, jnp.array([48.5, -1.4, 0.2])
+    r_t, _, _ = anomaly_rates(theta, j2.a, j2.e, j2.mu)
+    c_hn = hill_rotation(theta, j2.i, j2.raan, j2.argp)
+    chaser = c_hn.T @ (rho + jnp.array([r_t, 0.0, 0.0]))
+    expected = c_hn @ j2_gravity(chaser, j2.mu)
+    np.testing.assert_allclose(
+        j2.gravity(theta, rho) - kepler.gravity(theta, rho), expected, rtol=1e-9, atol=1e-15
+    )
+    # About 1.4e-2 m/s^2 in LEO: 1.4 N on the 100 kg chaser, the paper's disturbance force.
+    assert 5e-3 < float(jnp.linalg.norm(expected)) < 3e-2
+
+
+def test_bad_input_is_refused_before_running():
+    inside = (30.0, 10.0, 0.0)  # inside the sphere, outside the corridor
+    with pytest.raises(ValueError, match="initial position"):
+        wu2018.simulate_batch([inside])
+    loop = wu2018.build()
+    bad_target = wu2018.SafeApproachReference(inside, wu2018.MEAN_MOTION)
+    ref, _ = bad_target(0.0, None)
+    with pytest.raises(ValueError, match="target position"):
+        loop.controller.check_initial(0.0, wu2018.initial_state(wu2018.CASES["case1"]), ref)
+    with pytest.raises(ValueError, match="velocity_limit"):
+        wu2018.controller(velocity_limit=-1.0)
+    with pytest.raises(ValueError, match="avoidance"):
+        SafeApproachSlidingMode(
+            wu2018.plant(False),
+            wu2018.safety(),
+            **wu2018.GAINS,
+            force_limit=1.0,
+            torque_limit=1.0,
+            avoidance="both",
+        )
+    with pytest.raises(ValueError, match="gamma"):
+        wu2018.controller(gamma=1.5)
