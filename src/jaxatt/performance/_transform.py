@@ -44,7 +44,8 @@ def transform_error(
     **Guard.** For $|z| \ge 1$ (the error left its envelope) the inverse does not exist;
     $z$ is clipped to $\pm$`Z_LIMIT` $= 1 - 10^{-9}$ inside `atanh` and $\beta$, so the
     values stay finite (never NaN) and the caller reports the violation (a controller's
-    `admissible` hook, so the sample's status becomes `constraint_violated`). `z` is returned unclipped.
+    `admissible` hook, so the sample's status becomes `constraint_violated`). `z` is returned
+    unclipped.
     """
     e = jnp.asarray(error)
     rho = jnp.asarray(rho)
