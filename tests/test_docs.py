@@ -79,13 +79,13 @@ def documented_paths(pages: dict[str, str]) -> set[str]:
 def undocumented(pages: dict[str, str]) -> list[str]:
     """Public names without an API entry. A name counts as documented when its own path has an
     entry, or when it re-exports a class, function or module that has one elsewhere (e.g.
-    `jaxatt.plants.Sinusoid` is `jaxatt.signals.Sinusoid`)."""
+    `jaxatt.plants.Sinusoid` is `jaxatt.signals.Sinusoid`) under the same name."""
     paths = documented_paths(pages)
     identities = set()
     for path in paths:
         obj = resolve(path)
         if isinstance(obj, (type, types.FunctionType, types.ModuleType)):
-            identities.add(id(obj))
+            identities.add((id(obj), path.rsplit(".", 1)[-1]))
     missing = []
     for module in public_modules():
         for name, value in public_names(module).items():
@@ -93,7 +93,7 @@ def undocumented(pages: dict[str, str]) -> list[str]:
             if path in paths:
                 continue
             if isinstance(value, (type, types.FunctionType, types.ModuleType)) and (
-                id(value) in identities
+                (id(value), name) in identities
             ):
                 continue
             missing.append(path)
