@@ -13,6 +13,7 @@
 import importlib
 import pkgutil
 import re
+import textwrap
 import types
 from pathlib import Path
 
@@ -27,7 +28,9 @@ API = DOCS / "api"
 
 _ENTRY = re.compile(r"^::: +([\w.]+)\s*$", re.M)  # a mkdocstrings entry
 _ANCHOR = re.compile(r"\[\]\(\)\{#([\w.]+)\}")  # an autorefs alias: `[](){#jaxatt.simulate}`
-_FENCE = re.compile(r"^```(\w*)[^\n]*\n(.*?)^```\s*$", re.M | re.S)
+# A fenced block at any indentation (inside a list or an admonition too): indent, language, code.
+_FENCE = re.compile(r"^([ \t]*)```[ \t]*([\w+-]*)[^\n]*\n(.*?)^\1```[ \t]*$", re.M | re.S)
+_PYTHON = ("python", "py", "python3")
 
 
 def public_modules() -> list[types.ModuleType]:
@@ -123,8 +126,13 @@ def test_a_missing_entry_is_reported(api_pages):
     assert sorted(undocumented(pages)) == ["jaxatt.plants.Sinusoid", "jaxatt.signals.Sinusoid"]
 
 
+def fenced_blocks(path: Path) -> list[tuple[str, str]]:
+    """(language, code) of every fenced block, the code dedented."""
+    return [(lang, textwrap.dedent(code)) for _, lang, code in _FENCE.findall(path.read_text())]
+
+
 def python_blocks(path: Path) -> list[str]:
-    return [code for lang, code in _FENCE.findall(path.read_text()) if lang == "python"]
+    return [code for lang, code in fenced_blocks(path) if lang in _PYTHON]
 
 
 PAGES_WITH_CODE = [
@@ -145,10 +153,22 @@ def test_code_blocks_run(page, tmp_path, monkeypatch):
     plt.close("all")
 
 
+def test_no_python_hides_in_other_blocks():
+    # Code that does not run is not allowed: Python goes in ```python blocks, which run.
+    pages = [ROOT / "README.md", *sorted(DOCS.rglob("*.md"))]
+    hidden = [
+        (str(page.relative_to(ROOT)), lang)
+        for page in pages
+        for lang, code in fenced_blocks(page)
+        if lang not in _PYTHON and re.search(r"^(import \w|from [\w.]+ import )", code, re.M)
+    ]
+    assert hidden == []
+
+
 def bash_block_after(path: Path, heading: str) -> str:
     text = path.read_text()
     start = text.index(heading)
-    lang, code = _FENCE.search(text, start).groups()
+    _, lang, code = _FENCE.search(text, start).groups()
     assert lang == "bash", (path, heading)
     return code.strip()
 
