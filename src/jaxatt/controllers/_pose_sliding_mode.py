@@ -46,7 +46,7 @@ class PoseSlidingMode(AbstractController):
     - `ExponentialPerformance`: eq. (33), PPC + SMC.
     - `FiniteTimePerformance`: Section 4.3, finite-time PF + SMC.
 
-    **Erratum** (SPEC 003.3 [E][V]): (33) is printed with $-\beta_2e_2\dot\rho_2/\rho_2$; only
+    **Erratum** (SPEC 003.3 \[E\]\[V\]): (33) is printed with $-\beta_2e_2\dot\rho_2/\rho_2$; only
     $+$ cancels the $-\beta_2e_2\dot\rho_2/\rho_2$ of $\dot\kappa_2$ (eq. 31), which the stability
     proof (35) needs. `rate_term="literal"` flies the printed sign.
 

@@ -42,9 +42,10 @@ def transform_error(
     $\dot\kappa = \beta(\dot e - e\dot\rho/\rho)$ (eq. 30). Elementwise.
 
     **Guard.** For $|z| \ge 1$ (the error left its envelope) the inverse does not exist;
-    $z$ is clipped to $\pm$[`Z_LIMIT`][] inside `atanh` and $\beta$, so the values stay finite
-    (never NaN) and the caller reports the violation (a controller's `admissible` hook, so the
-    sample's status becomes `constraint_violated`). `z` is returned unclipped.
+    $z$ is clipped to $\pm$`Z_LIMIT` $= 1 - 10^{-9}$ inside `atanh` and $\beta$, so the
+    values stay finite (never NaN) and the caller reports the violation (a controller's
+    `admissible` hook, so the sample's status becomes `constraint_violated`). `z` is returned
+    unclipped.
     """
     e = jnp.asarray(error)
     rho = jnp.asarray(rho)

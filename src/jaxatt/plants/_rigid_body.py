@@ -87,8 +87,9 @@ class RigidBody(eqx.Module):
     satisfies $\lambda_{\min}(J_0) > \|B\|_2$, then $J(t)$ is positive definite for every $t$
     (since $\|\Delta J\|_2 \le \||\Delta J|\|_2 \le \|B\|_2$), and nothing more is needed; if
     $J_0 + \Delta J(0)$ is not positive definite the constructor raises. Otherwise the run
-    checks $J(t)$ after every completed step ([`valid`][]) and reports a sample whose inertia
-    stops being positive definite as `Status.invalid_plant`.
+    checks $J(t)$ after every completed step
+    ([`valid`][jaxatt.plants.AbstractPlant.valid]) and reports a sample whose inertia stops
+    being positive definite as `Status.invalid_plant`.
     """
 
     inertia: Mat33

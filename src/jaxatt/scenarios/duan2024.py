@@ -26,8 +26,8 @@ Classic RK4 at dt = 0.01 s (the sampling instants are step boundaries), horizon 
 - The exact periodic bound $h^*$ from the one-period transition matrix of each mode
   ([`jaxatt.networks.largest_stable_interval`][]).
 
-**Findings** (measured by `reproduce`; see `metrics.json` and the README): the corrected
-LMI is feasible for the $\lambda = 1$ mode up to $\tau = 0.7346$ s but for the
+**Findings** (measured by `reproduce`; see `metrics.json` and `docs/gallery/duan2024.md`):
+the corrected LMI is feasible for the $\lambda = 1$ mode up to $\tau = 0.7346$ s but for the
 $\lambda = 3$ mode only up to $\tau = 0.2323$ s, so the paper's "feasible at
 $\tau = 0.26$ s" does **not** hold for the corrected theorem; the printed theorem is
 infeasible for every $\tau$ (its $L_1 - \lambda_k\Delta$ is not Hurwitz: trace

@@ -239,9 +239,9 @@ RECORDED = pathlib.Path(__file__).parent / "results"
 
 
 def recorded(problem: str = "ppc") -> dict:
-    """The `tuning.json` of the recorded by-hand run of `problem` (see README, "Zhang et al.
-    (2021)": `jaxatt tune zhang2021 --samples 16 --steps 30 --validation-samples 32`, and the
-    same with `zhang2021-finite-time`)."""
+    """The `tuning.json` of the recorded by-hand run of `problem` (see the gallery page
+    `docs/gallery/zhang2021.md`: `jaxatt tune zhang2021 --samples 16 --steps 30
+    --validation-samples 32`, and the same with `zhang2021-finite-time`)."""
     if problem not in PROBLEMS:
         raise ValueError(f"zhang2021 tuning: `problem` must be one of {PROBLEMS}, got {problem!r}.")
     return json.loads((RECORDED / f"zhang2021_{problem}.json").read_text())
