@@ -65,13 +65,16 @@ def test_monte_carlo_reports_every_sample_safe_and_converged(short):
         assert mc["peak_force"] <= wu2018.FORCE_LIMIT * (1 + 1e-12)
 
 
-def test_a_sample_that_enters_the_keep_out_set_is_reported_not_nan():
-    traj = wu2018.simulate_batch([wu2018.CASES["case2"]], avoidance=False, horizon=40.0)
-    summary = wu2018.monte_carlo_summary(traj, np.asarray([wu2018.CASES["case2"]]))
-    assert summary["fraction_safe"] == 0.0
-    assert summary["results"] == {"constraint_violated": 1}
+def test_a_sample_that_enters_the_keep_out_set_is_reported_not_nan(short):
+    """Cases 1 and 2 without avoidance ran in the same batch as the safe runs: the failed sample
+    carries its status and entry time, its numbers stay finite, and it is never counted safe."""
+    _, metrics = short
+    summary = metrics["without_avoidance"]
+    assert summary["results"] == {"successful": 1, "constraint_violated": 1}
+    assert summary["fraction_safe"] == 0.5
     assert np.isfinite(summary["min_h"]) and summary["min_h"] < 0.0
-    assert np.all(np.isfinite(np.asarray(traj.states.plant.orbit.rho)))
+    entry = metrics["case2"]["without_avoidance"]["entry_time"]
+    assert np.isfinite(entry) and entry > 0.0
 
 
 def test_unsaturated_law_meets_its_reaching_dynamics_exactly():
@@ -98,7 +101,7 @@ def test_unsaturated_law_meets_its_reaching_dynamics_exactly():
         ref, _ = loop.reference(t, y.reference)
         return controller.signals(t, y.plant, ref, y.controller)["s_translation"]
 
-    s, s_dot = jax.jvp(surface, (y0,), (loop.vector_field(t, y0, None),))
+    s, s_dot = jax.jit(lambda y: jax.jvp(surface, (y,), (loop.vector_field(t, y, None),)))(y0)
     z = s - state.translation.eta
     b = controller.barrier(x0.orbit.rho)
     assert float(jnp.linalg.norm(b)) > 1.0  # the barrier is active here

@@ -51,7 +51,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .._validation import check_positive, check_spd
+from .._validation import check_nonnegative, check_positive, check_spd
 from ..numerics import safe_norm, sig_pow
 from ..plants import Proximity, ProximityState
 from ..references import PoseReference
@@ -90,7 +90,8 @@ class SafeApproachSlidingMode(AbstractController):
     **Arguments:** `model` (the Proximity plant the law knows: mass, inertia, orbit; its orbit
     model's gravity is the known drift), `safety` (a [`jaxatt.safety.CollisionAvoidance`][]
     evaluated at the Hill-frame position), gains `k1, k2, k3, gamma, k_s, k_eta, k_h, P1, P2`
-    (positive, $\gamma < 1$), `force_limit` [N] and `torque_limit` [N m] (per body axis),
+    (positive, $\gamma < 1$; $k_h \ge 0$, and $k_h = 0$ turns the avoidance term off inside
+    the same compiled program), `force_limit` [N] and `torque_limit` [N m] (per body axis),
     `velocity_limit` $V$ [m/s] (`None`: none), `influence` $\hat h_0$ [m] (default 2),
     `length` $L$ [m] (default 10), `epsilon` (tanh width, default 0.01), `mu` (guard of the
     template's auxiliary gain, default 1e-3), `floor` [m] (terminal slope guard, default
@@ -187,7 +188,6 @@ class SafeApproachSlidingMode(AbstractController):
             k3=k3,
             k_s=k_s,
             k_eta=k_eta,
-            k_h=k_h,
             P1=P1,
             P2=P2,
             length=length,
@@ -199,6 +199,7 @@ class SafeApproachSlidingMode(AbstractController):
             gamma=gamma,
         ).items():
             setattr(self, name, check_positive(where, name, value))
+        self.k_h = check_nonnegative(where, "k_h", k_h)
         if not float(gamma) < 1.0:
             raise ValueError(f"{where}: `gamma` must lie in (0, 1), got gamma={float(gamma)}.")
         check_spd(where, "model.body.inertia", model.body.inertia)

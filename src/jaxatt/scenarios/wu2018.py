@@ -187,15 +187,17 @@ def plant(j2: bool = True) -> Proximity:
 
 
 def controller(avoidance: bool = True, **options) -> SafeApproachSlidingMode:
-    """The safe-approach law with the printed gains and our limits (module docstring)."""
+    """The safe-approach law with the printed gains and our limits (module docstring);
+    `avoidance=False` sets $k_h = 0$ (same structure, so both batch in one program)."""
     settings = dict(
         GAINS,
+        k_h=GAINS["k_h"] if avoidance else 0.0,
         force_limit=FORCE_LIMIT,
         torque_limit=TORQUE_LIMIT,
         velocity_limit=VELOCITY_LIMIT,
         influence=INFLUENCE,
         length=LENGTH,
-        avoidance="surface" if avoidance else None,
+        avoidance="surface",
     )
     settings.update(options)
     return SafeApproachSlidingMode(plant(j2=False), safety(), **settings)
@@ -226,16 +228,17 @@ def _integrate_batch(loops: ClosedLoop, x0s: ProximityState, sim: Simulation) ->
 
 
 def simulate_batch(
-    starts, *, avoidance: bool = True, hold_point=False, dt: float = DT, horizon: float = HORIZON
+    starts, *, avoidance=True, hold_point=False, dt: float = DT, horizon: float = HORIZON
 ) -> Trajectory:
     """Fly the law from each start (an (N, 3) array of Hill positions [m], zero velocity,
-    the paper's attitude) in one compiled, vmapped program; `hold_point` is one bool or one per
-    start. Every start and the target are checked against $h > 0$ first (`ValueError` naming
-    the start); a sample that reaches $h \\le 0$ gets status `constraint_violated` and its
-    failure time, never NaN."""
+    the paper's attitude) in one compiled, vmapped program; `avoidance` and `hold_point` are
+    one bool or one per start. Every start and the target are checked against $h > 0$ first
+    (`ValueError` naming the start); a sample that reaches $h \\le 0$ gets status
+    `constraint_violated` and its failure time, never NaN."""
     starts = np.asarray(starts, dtype=float).reshape(-1, 3)
     holds = np.broadcast_to(np.asarray(hold_point, dtype=bool), (len(starts),))
-    loops = [build(avoidance, bool(h)) for h in holds]
+    avoids = np.broadcast_to(np.asarray(avoidance, dtype=bool), (len(starts),))
+    loops = [build(bool(a), bool(h)) for a, h in zip(avoids, holds)]
     for k, p in enumerate(starts):
         loops[k].controller.check_initial(0.0, initial_state(p), loops[k].reference(0.0, None)[0])
     sim = Simulation(0.0, horizon, dt, save_every=max(1, round(0.2 / dt)))
@@ -336,7 +339,8 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
     [`trajectory_metrics`][] plus `without_avoidance` {`min_h`, `enters_keep_out`,
     `entry_time`}), `case2_direct` (Case 2 flown straight at $r_d$ with avoidance, at
     dt = 5 ms: safe, but it stalls on the corridor mouth's lip; null with `short=True`),
-    `monte_carlo` ({`corridor`, `outside`}: [`monte_carlo_summary`][]).
+    `monte_carlo` ({`corridor`, `outside`}: [`monte_carlo_summary`][]), `without_avoidance`
+    (the same summary of Cases 1 and 2 without the avoidance term, as a batch).
     `short=True` (CI): 4 + 4 Monte Carlo samples, no direct run.
     """
     out = pathlib.Path(out_dir)
@@ -344,14 +348,15 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
     n = SHORT_MC_SAMPLES // 2 if short else MC_SAMPLES // 2
     k1, k2 = jr.split(jr.key(MC_SEED))
     corridor, outside = sample_corridor_starts(k1, n), sample_outside_starts(k2, n)
-    starts = np.concatenate([[CASES["case1"], CASES["case2"]], corridor, outside])
-    holds = np.array([False, True] + [False] * n + [True] * n)
+    cases = [CASES["case1"], CASES["case2"]]
+    starts = np.concatenate([cases, corridor, outside, cases])
+    holds = np.array([False, True] + [False] * n + [True] * n + [False, False])
+    avoids = np.array([True] * (2 + 2 * n) + [False, False])
     if progress:
-        print(f"[wu2018] Cases 1, 2 and {2 * n} Monte Carlo starts with avoidance")
-    on = simulate_batch(starts, hold_point=holds)
-    if progress:
-        print("[wu2018] Cases 1 and 2 without avoidance")
-    off = simulate_batch([CASES["case1"], CASES["case2"]], avoidance=False)
+        print(f"[wu2018] Cases 1 and 2 with and without avoidance, {2 * n} Monte Carlo starts")
+    batch = simulate_batch(starts, avoidance=avoids, hold_point=holds)
+    on = jax.tree_util.tree_map(lambda x: x[:-2], batch)
+    off = jax.tree_util.tree_map(lambda x: x[-2:], batch)
     direct = None
     if not short:
         if progress:
@@ -382,6 +387,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
         metrics[case] = trajectory_metrics(_take(on, k))
         metrics[case]["without_avoidance"] = _without(_take(off, k))
     metrics["case2"]["route"] = "hold point"
+    metrics["without_avoidance"] = monte_carlo_summary(off, np.asarray(cases))
     if direct is not None:
         one = _take(direct, 0)
         metrics["case2_direct"] = trajectory_metrics(one)
