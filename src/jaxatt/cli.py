@@ -121,7 +121,9 @@ def build_parser() -> argparse.ArgumentParser:
     rep.add_argument("--short", action="store_true", help="short mode (CI)")
     rep.set_defaults(func=_cmd_reproduce)
     tun = sub.add_parser("tune", help="tune a scenario's gains with autodiff; write a report")
-    tun.add_argument("name", help="tuning problem (chen2022, zhang2021, zhang2021-finite-time)")
+    tun.add_argument(
+        "name", help="tuning problem (chen2022, zhang2021, zhang2021-finite-time, shi2024)"
+    )
     tun.add_argument("--samples", type=int, help="training batch size (default: the problem's)")
     tun.add_argument("--steps", type=int, help="optimizer steps (default: the problem's)")
     tun.add_argument(
