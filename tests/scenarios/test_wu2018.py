@@ -72,6 +72,7 @@ def test_a_sample_that_enters_the_keep_out_set_is_reported_not_nan(short):
     summary = metrics["without_avoidance"]
     assert summary["results"] == {"successful": 1, "constraint_violated": 1}
     assert summary["fraction_safe"] == 0.5
+    assert summary["fraction_converged"] == 0.5  # it flew through the sphere to r_d: not counted
     assert np.isfinite(summary["min_h"]) and summary["min_h"] < 0.0
     entry = metrics["case2"]["without_avoidance"]["entry_time"]
     assert np.isfinite(entry) and entry > 0.0

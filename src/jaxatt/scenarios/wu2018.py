@@ -311,7 +311,9 @@ def _without(traj: Trajectory) -> dict:
 
 def monte_carlo_summary(traj: Trajectory, starts: np.ndarray) -> dict:
     """Fraction safe (status successful and $h > 0$ at every saved sample), the minimum $h$
-    over the batch, and the fraction within 1 cm of $r_d$ at the end."""
+    over the batch, and the fraction that is safe *and* within 1 cm of $r_d$ at the end (a
+    sample that crossed $h = 0$ never counts as converged: its run went on through the
+    keep-out set); `largest_final_position_error` is over the safe samples (NaN if none)."""
     h = np.asarray(traj.signals["h"])
     status = np.asarray(traj.status)
     safe = (status == Status.successful) & (h > 0).all(axis=-1)
@@ -322,8 +324,8 @@ def monte_carlo_summary(traj: Trajectory, starts: np.ndarray) -> dict:
         "samples": int(len(starts)),
         "fraction_safe": float(safe.mean()),
         "min_h": float(h.min()),
-        "fraction_converged": float((error < 1e-2).mean()),
-        "largest_final_position_error": float(error.max()),
+        "fraction_converged": float((safe & (error < 1e-2)).mean()),
+        "largest_final_position_error": float(error[safe].max()) if safe.any() else math.nan,
         "peak_force": float(np.abs(u[..., :3]).max()),
         "peak_torque": float(np.abs(u[..., 3:]).max()),
         "results": {s.name: int((status == s).sum()) for s in Status if (status == s).any()},
