@@ -20,6 +20,7 @@ import jax.numpy as jnp
 import jax.tree_util as jtu
 from jaxtyping import Array, PyTree
 
+from .._validation import host_checked_program
 from ._closed_loop import AbstractClosedLoop, HeldOutputs
 from ._scalarize import scalarized_loop_step
 from ._settings import Simulation
@@ -149,5 +150,6 @@ def integrate(closed_loop: AbstractClosedLoop, x0: PyTree[Array], sim: Simulatio
     )
 
 
-integrate_jit = eqx.filter_jit(integrate)
-"""[`integrate`][] compiled with `eqx.filter_jit` (what `simulate` calls)."""
+integrate_jit = eqx.filter_jit(host_checked_program(integrate))
+"""[`integrate`][] compiled with `eqx.filter_jit` (what `simulate` calls), its inputs checked on
+the host by `simulate`: no host callback in the program (`jaxatt._validation.host_checked`)."""

@@ -14,7 +14,7 @@ import numpy as np
 import optax
 from jaxtyping import Array, PyTree
 
-from .._validation import check_tree_finite
+from .._validation import check_tree_finite, host_checked_program
 from ._checkpoint import TuneState, load_checkpoint, save_checkpoint
 from ._objective import AbstractObjective
 from ._parameters import apply, check_parameters, constrained, initial_unconstrained
@@ -99,6 +99,7 @@ def loss_and_grad(
 
 
 @eqx.filter_jit
+@host_checked_program  # `loss_and_grad` and `tune` check parameters and inputs on the host
 def _loss_and_grad(unconstrained, template, parameters, objective, inputs):
     def loss_fn(u):
         return objective(apply(template, parameters, u), inputs)
@@ -279,5 +280,6 @@ def evaluate(module: PyTree, objective: Callable, inputs: PyTree) -> tuple[Array
 
 
 @eqx.filter_jit
+@host_checked_program
 def _evaluate(module, objective, inputs):
     return objective(module, inputs)
