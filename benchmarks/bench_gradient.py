@@ -1,6 +1,6 @@
 r"""Cost of the gradient of a Monte Carlo settling-time objective of Chen 2022's M1 with respect
 to its five reaching-law and surface gains: reverse mode against forward mode, with and without
-`simulate(checkpoint=True)`, time and peak memory.
+`simulate(checkpoint=True)` (or `"nested"`), time and peak memory.
 
 **Closed loop and batch.** `jaxatt.scenarios.chen2022_two_phase_power.build("M1")` (classic
 RK4, dt = 1e-3 s, 30 N m per-axis saturation), `--batch` initial states from
@@ -30,6 +30,10 @@ of each rematerialized interval.
   recomputed in the backward pass, so memory grows with the number of saves.
 - `reverse-nockpt`: the same with `checkpoint=False`: the residuals of every RK4 step are kept,
   so memory grows with the number of steps.
+- `reverse-nested`: the same with `checkpoint="nested"`: the $N$ save intervals are scanned
+  in blocks of about $\sqrt N$, each block under a second `jax.checkpoint`, so about
+  $2\sqrt N$ loop states are stored instead of $N$ (the saved trajectory that the objective
+  reads is stored in every configuration).
 - `jacfwd`: `jax.jacfwd(L)(u)`: the five tangents pushed forward with the primal in one pass
   (`checkpoint` has no effect in forward mode; `forward-nockpt` and `jacfwd-nockpt` exist to
   show it).
@@ -90,6 +94,7 @@ CONFIGS = {
     "forward": ("forward", True),
     "reverse": ("reverse", True),
     "reverse-nockpt": ("reverse", False),
+    "reverse-nested": ("reverse", "nested"),
     "jacfwd": ("jacfwd", True),
     "forward-nockpt": ("forward", False),
     "jacfwd-nockpt": ("jacfwd", False),
@@ -149,7 +154,7 @@ def parse_args(argv=None) -> argparse.Namespace:
 # The objective and the measured functions (built in the child processes).
 
 
-def make_loss(horizon: float, dt: float, save_every: int, checkpoint: bool):
+def make_loss(horizon: float, dt: float, save_every: int, checkpoint: bool | str):
     """`loss(u, template, x0s) -> (L, successful)`: the mean objective time (module docstring)
     of the loop `jaxatt.tune.apply(template, parameters, u)` over the batch `x0s`, run by
     `jaxatt.montecarlo.run_batch` (the batch runner of `monte_carlo` and of the tuning
@@ -393,7 +398,7 @@ def check_rows(rows, args, tol) -> list[dict]:
                 ok=row["failed_samples"] == 0,
                 failed_samples=row["failed_samples"],
             )
-            if row["grad"] is not None and not row["checkpoint"]:
+            if row["grad"] is not None and row["checkpoint"] is not True:
                 other = reverse if row["mode"] == "reverse" else jacfwd
                 check(
                     horizon,

@@ -9,6 +9,9 @@ import os
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 os.environ.setdefault("JAXATT_SHORT", "1")
+# The CLI turns the persistent compilation cache on by default; tests neither read nor write
+# the user's cache (tests/simulation/test_compile_cache.py uses its own folders).
+os.environ.setdefault("JAXATT_CACHE_DIR", "off")
 
 import jax  # noqa: E402
 

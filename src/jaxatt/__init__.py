@@ -9,8 +9,9 @@ The top level exports the verbs and containers; components live in sub-packages:
 the applications in `jaxatt.scenarios` load on first use: `import jaxatt` imports the core
 only.
 
-jaxatt never changes JAX's configuration: enable float64 yourself, first, when you need it
-(`jax.config.update("jax_enable_x64", True)`), as the CLI, notebooks and tests do.
+jaxatt never changes JAX's configuration on import: enable float64 yourself, first, when you need it
+(`jax.config.update("jax_enable_x64", True)`), as the CLI, notebooks and tests do, and the
+persistent compilation cache with `jaxatt.enable_compilation_cache()` (the CLI turns it on).
 """
 
 import importlib
@@ -34,6 +35,10 @@ from . import (
     signals as signals,
     simulation as simulation,
     sliding as sliding,
+)
+from ._compilation_cache import (
+    disable_compilation_cache as disable_compilation_cache,
+    enable_compilation_cache as enable_compilation_cache,
 )
 from .simulation import (
     AbstractClosedLoop as AbstractClosedLoop,

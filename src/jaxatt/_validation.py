@@ -6,7 +6,12 @@ Each helper converts its argument to a JAX array and checks a rule.
   NumPy, so a check compiles nothing. A violated rule raises a `ValueError` that names the
   owner, the argument, the value and the rule.
 - **Traced values** (a module built inside `jit`/`vmap`/`grad`) cannot be decided at trace
-  time, so the check is attached to the value with `eqx.error_if` and fires at run time.
+  time, so the check is attached to the value with `eqx.error_if` and fires at run time -
+  except inside the programs jaxatt compiles itself ([`host_checked_program`][]: `simulate`'s
+  time loop, the Monte Carlo batch, a tuning step), whose inputs were checked on the host
+  before tracing (constructors check their concrete fields; the entry points check states and
+  settings). Those programs hold no host callback, so JAX's persistent compilation cache
+  accepts them; their run-time failures come back as status codes.
 
 Every result is a *strongly typed* floating array: a Python float becomes an array of JAX's
 default float dtype (float64 when x64 is enabled), never a weakly typed one. Tuning writes
@@ -14,6 +19,9 @@ strongly typed gains back into modules, so a template built from Python floats a
 copies share their compiled programs.
 """
 
+import contextlib
+import contextvars
+import functools
 from collections.abc import Callable
 from types import ModuleType
 
@@ -27,6 +35,38 @@ from jaxtyping import Array, ArrayLike
 Predicate = Callable[[ModuleType, Array], ArrayLike]
 """`predicate(xp, x)` returns booleans that must all hold; `xp` is `numpy` for concrete
 values and `jax.numpy` for traced ones, so one predicate serves both."""
+
+
+_HOST_CHECKED = contextvars.ContextVar("jaxatt_host_checked", default=False)
+
+
+@contextlib.contextmanager
+def host_checked():
+    """While tracing a program whose inputs were checked on the host: traced checks are not
+    re-attached as `eqx.error_if` (host callbacks)."""
+    token = _HOST_CHECKED.set(True)
+    try:
+        yield
+    finally:
+        _HOST_CHECKED.reset(token)
+
+
+def host_checked_program(fn: Callable) -> Callable:
+    """`fn` traced under [`host_checked`][]: for the bodies of jaxatt's own compiled entry points
+    (wrap before `eqx.filter_jit`). Their arrays are either module fields that the modules'
+    constructors checked on the host, states and settings the entry point checked on the host,
+    or values computed in the program (whose failures the status codes report)."""
+
+    @functools.wraps(fn)
+    def traced(*args, **kwargs):
+        with host_checked():
+            return fn(*args, **kwargs)
+
+    return traced
+
+
+def _skip_traced_check() -> bool:
+    return _HOST_CHECKED.get()
 
 
 def is_traced(x) -> bool:
@@ -85,6 +125,8 @@ def check(
     arr = as_float_array(value, name, where)
     message = f"{where}: `{name}` {rule}"
     if is_traced(arr):
+        if _skip_traced_check():
+            return arr
         ok = jnp.all(jnp.asarray(predicate(jnp, arr)))
         return eqx.error_if(arr, ~ok, message + ".")
     host = np.asarray(arr)
@@ -100,9 +142,7 @@ def check_finite(where: str, name: str, value: ArrayLike) -> Array:
 
 
 def check_positive(where: str, name: str, value: ArrayLike) -> Array:
-    return check(
-        where, name, value, lambda xp, x: xp.isfinite(x) & (x > 0), "must be positive"
-    )
+    return check(where, name, value, lambda xp, x: xp.isfinite(x) & (x > 0), "must be positive")
 
 
 def check_nonnegative(where: str, name: str, value: ArrayLike) -> Array:
@@ -233,6 +273,8 @@ def check_unit_quaternions(
     arr = check_batched_shape(where, name, value, (4,), batch_shape)
     rule = f"must hold unit quaternions (| ||q|| - 1 | <= {tol:g}); normalize them first"
     if is_traced(arr):
+        if _skip_traced_check():
+            return arr
         norms = jnp.sqrt(jnp.sum(arr**2, axis=-1))
         return eqx.error_if(arr, ~jnp.all(jnp.abs(norms - 1) <= tol), f"{where}: `{name}` {rule}.")
     norms = np.linalg.norm(np.asarray(arr), axis=-1)

@@ -1,7 +1,9 @@
 """Command-line front end: `jaxatt demo | list | reproduce NAME | tune NAME`.
 
-Enables float64 before anything else (reproductions run in double precision), then dispatches
-to library functions. No numerics here.
+Enables float64 before anything else (reproductions run in double precision) and the persistent
+compilation cache (a second run in a new process reuses the compiled programs; folder from
+`--cache-dir`, else `$JAXATT_CACHE_DIR`, else `~/.cache/jaxatt/xla`; `--no-cache` or
+`JAXATT_CACHE_DIR=off` turn it off), then dispatches to library functions. No numerics here.
 """
 
 import argparse
@@ -15,6 +17,16 @@ def _enable_x64() -> None:
     import jax
 
     jax.config.update("jax_enable_x64", True)
+
+
+def _setup_cache(args: argparse.Namespace) -> None:
+    from ._compilation_cache import cache_disabled_by_env, enable_compilation_cache
+
+    if getattr(args, "no_cache", False):
+        return
+    if getattr(args, "cache_dir", None) is None and cache_disabled_by_env():
+        return
+    enable_compilation_cache(getattr(args, "cache_dir", None))
 
 
 def _cmd_list(args: argparse.Namespace) -> int:
@@ -107,20 +119,40 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )
     sub = parser.add_subparsers(dest="command", required=True)
+    # Options every compiling command takes (after the command name).
+    cache = argparse.ArgumentParser(add_help=False)
+    cache.add_argument(
+        "--cache-dir",
+        help=(
+            "persistent compilation cache folder (default: $JAXATT_CACHE_DIR, else "
+            "~/.cache/jaxatt/xla)"
+        ),
+    )
+    cache.add_argument(
+        "--no-cache",
+        action="store_true",
+        help="do not read or write the compilation cache (also: JAXATT_CACHE_DIR=off)",
+    )
     demo = sub.add_parser(
-        "demo", help="reproduce Chen 2022, run a Monte Carlo, tune with autodiff; write a report"
+        "demo",
+        parents=[cache],
+        help="reproduce Chen 2022, run a Monte Carlo, tune with autodiff; write a report",
     )
     demo.add_argument("--out", help="output folder (default ./jaxatt-out/demo)")
     demo.add_argument("--short", action="store_true", help="coarser step, smaller batch")
     demo.set_defaults(func=_cmd_demo)
     lister = sub.add_parser("list", help="list the available scenarios")
     lister.set_defaults(func=_cmd_list)
-    rep = sub.add_parser("reproduce", help="reproduce a scenario's figures and metrics")
+    rep = sub.add_parser(
+        "reproduce", parents=[cache], help="reproduce a scenario's figures and metrics"
+    )
     rep.add_argument("name", help="scenario name (see `jaxatt list`)")
     rep.add_argument("--out", help="output folder (default ./jaxatt-out/NAME)")
     rep.add_argument("--short", action="store_true", help="short mode (CI)")
     rep.set_defaults(func=_cmd_reproduce)
-    tun = sub.add_parser("tune", help="tune a scenario's gains with autodiff; write a report")
+    tun = sub.add_parser(
+        "tune", parents=[cache], help="tune a scenario's gains with autodiff; write a report"
+    )
     tun.add_argument(
         "name", help="tuning problem (chen2022, zhang2021, zhang2021-finite-time, shi2024)"
     )
@@ -140,6 +172,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     _enable_x64()
+    _setup_cache(args)
     return args.func(args)
 
 

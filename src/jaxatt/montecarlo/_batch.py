@@ -18,7 +18,7 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from jaxtyping import Array, ArrayLike, PyTree
 
 from .._paths import path_selector
-from .._validation import check_tree_finite
+from .._validation import check_tree_finite, host_checked_program
 from ..metrics import AbstractMetric
 from ..simulation import (
     RK4,
@@ -152,7 +152,8 @@ def run_batch(
     )
 
 
-run_batch_jit = eqx.filter_jit(run_batch)
+# `monte_carlo` checks states, settings and metrics on the host before calling it.
+run_batch_jit = eqx.filter_jit(host_checked_program(run_batch))
 
 
 def _is_none(x) -> bool:

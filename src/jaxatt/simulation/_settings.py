@@ -46,8 +46,13 @@ class Simulation(eqx.Module):
       fixed step).
     - `save_every`: save every this many steps (must divide the step count); the first save
       is at `t0`, the last at `t1`.
-    - `checkpoint`: rematerialize each save interval in reverse-mode autodiff, so gradient
-      memory grows with the number of saves rather than of steps.
+    - `checkpoint`: how reverse-mode autodiff stores the loop (no effect without `grad`):
+      `True` rematerializes each save interval (the loop state is stored once per save, the
+      steps inside an interval are recomputed); `"nested"` also groups the $N$ save intervals
+      in blocks of about $\sqrt N$ and stores only each block's initial state (a second level
+      of `jax.checkpoint`: about $2\sqrt N$ stored loop states instead of $N$, for one more
+      forward pass in the backward sweep); `False` stores every step's residuals.
+      Values that the run returns (the saved trajectory) are stored in every case.
     - `performance`: a [`Performance`][] (how the loop is compiled; never what it computes).
     - `where`: the name used in error messages (the public function building it).
     """
@@ -58,7 +63,7 @@ class Simulation(eqx.Module):
     sampling: AbstractSampling
     solver: AbstractFixedStepSolver
     save_every: int = eqx.field(static=True)
-    checkpoint: bool = eqx.field(static=True)
+    checkpoint: bool | str = eqx.field(static=True)
     performance: Performance
     n_steps: int = eqx.field(static=True)
     steps_per_sample: int = eqx.field(static=True)
@@ -72,7 +77,7 @@ class Simulation(eqx.Module):
         sampling: AbstractSampling = Continuous(),
         solver: AbstractFixedStepSolver | dfx.AbstractSolver = RK4(),
         save_every: int = 1,
-        checkpoint: bool = True,
+        checkpoint: bool | str = True,
         performance: Performance | None = None,
         where: str = "simulate",
     ):
@@ -107,7 +112,11 @@ class Simulation(eqx.Module):
         self.sampling = sampling
         self.steps_per_sample = sampling.steps_per_sample(self.dt)
         self.solver = as_fixed_step_solver(solver, where)
-        self.checkpoint = bool(checkpoint)
+        if checkpoint not in (True, False, "nested"):
+            raise ValueError(
+                f"{where}: `checkpoint` must be True, False or 'nested', got {checkpoint!r}."
+            )
+        self.checkpoint = checkpoint if checkpoint == "nested" else bool(checkpoint)
         if performance is None:
             performance = Performance()
         if not isinstance(performance, Performance):

@@ -61,7 +61,7 @@ def simulate(
     sampling: AbstractSampling = Continuous(),
     solver: AbstractFixedStepSolver | dfx.AbstractSolver = RK4(),
     save_every: int = 1,
-    checkpoint: bool = True,
+    checkpoint: bool | str = True,
     throw: bool = True,
     performance: Performance | None = None,
 ) -> Trajectory:
@@ -81,7 +81,9 @@ def simulate(
     - `save_every`: save every this many steps (must divide the step count); the first save
       is at `t0`, the last at `t1`.
     - `checkpoint`: rematerialize each save interval in reverse-mode autodiff, so gradient
-      memory grows with the number of saves rather than of steps. No effect without `grad`.
+      memory grows with the number of saves rather than of steps; `"nested"` adds a second
+      level (blocks of about $\sqrt N$ of the $N$ save intervals), so that about $2\sqrt N$
+      loop states are stored instead of $N$ (see [`Simulation`][]). No effect without `grad`.
     - `throw`: raise [`SimulationFailed`][] if the run fails (a non-finite state, an invalid
       plant, a constraint violation), after the compiled program has returned. Use
       `throw=False` for batches: failures are then reported per sample in

@@ -8,13 +8,14 @@ import pathlib
 from collections.abc import Callable, Mapping
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import jax.tree_util as jtu
 import numpy as np
 import optax
 from jaxtyping import Array, PyTree
 
-from .._validation import check_tree_finite
+from .._validation import check_tree_finite, host_checked_program
 from ._checkpoint import TuneState, load_checkpoint, save_checkpoint
 from ._objective import AbstractObjective
 from ._parameters import apply, check_parameters, constrained, initial_unconstrained
@@ -78,12 +79,24 @@ _DEFAULT_OPTIMIZER = optax.adam(0.05)
 """One object, so that runs with the default optimizer share their compiled update."""
 
 
+MODES = ("reverse", "forward")
+"""Differentiation modes of [`loss_and_grad`][] and [`tune`][]."""
+
+
+def _check_mode(mode) -> str:
+    if mode not in MODES:
+        raise ValueError(f"tune: `mode` must be 'reverse' or 'forward', got mode={mode!r}.")
+    return mode
+
+
 def loss_and_grad(
     unconstrained: Mapping[str, Array],
     template: PyTree,
     parameters: Mapping,
     objective: Callable,
     inputs: PyTree,
+    *,
+    mode: str = "reverse",
 ) -> tuple[tuple[Array, dict[str, Array]], dict[str, Array]]:
     """The loss, its aux and its gradient with respect to the unconstrained parameters:
     `((loss, aux), grads)` for `objective(apply(template, parameters, unconstrained), inputs)`.
@@ -92,18 +105,38 @@ def loss_and_grad(
     small one), so checking its gradient, e.g. against finite differences of
     [`evaluate`][], checks what tuning follows, and calling it before `tune` with the same
     arguments compiles the step once for both (see `tune` on static arguments).
+
+    `mode`: `"reverse"` (default; `eqx.filter_value_and_grad`: one backward sweep whatever the
+    number of gains, memory that grows with the horizon) or `"forward"` (`jax.jacfwd`: one
+    tangent per scalar gain pushed through the loop with the state, DiffTune-style sensitivity
+    propagation: no stored residuals, cost linear in the number of scalar gains). Both give
+    the same gradient to rounding.
     """
+    _check_mode(mode)
     check_parameters(template, parameters)
     _check_inputs(objective, template, inputs)
-    return _loss_and_grad(dict(unconstrained), template, parameters, objective, inputs)
+    step = _loss_and_grad if mode == "reverse" else _loss_and_grad_forward
+    return step(dict(unconstrained), template, parameters, objective, inputs)
 
 
 @eqx.filter_jit
+@host_checked_program  # `loss_and_grad` and `tune` check parameters and inputs on the host
 def _loss_and_grad(unconstrained, template, parameters, objective, inputs):
     def loss_fn(u):
         return objective(apply(template, parameters, u), inputs)
 
     return eqx.filter_value_and_grad(loss_fn, has_aux=True)(unconstrained)
+
+
+@eqx.filter_jit
+@host_checked_program
+def _loss_and_grad_forward(unconstrained, template, parameters, objective, inputs):
+    def loss_fn(u):
+        loss, aux = objective(apply(template, parameters, u), inputs)
+        return loss, (loss, aux)
+
+    grads, (loss, aux) = jax.jacfwd(loss_fn, has_aux=True)(unconstrained)
+    return (loss, aux), grads
 
 
 @eqx.filter_jit
@@ -144,6 +177,7 @@ def tune(
     progress: bool = True,
     callback: Callable[[int, float, dict], None] | None = None,
     on_nonfinite: str = "raise",
+    mode: str = "reverse",
 ) -> TuneResult:
     """Tune the `parameters` of `template` by gradient descent on `objective(module, inputs)`.
 
@@ -164,6 +198,9 @@ def tune(
       gradient is not finite; `"stop"` ends the run there and returns the last good step's
       result with the error's message in `TuneResult.stopped` (for a batch script that must
       report what it reached, e.g. when a step would push a sample across a constraint).
+    - `mode`: `"reverse"` (default) or `"forward"` sensitivities (see [`loss_and_grad`][]):
+      forward mode wins for a handful of scalar gains on long horizons, where reverse mode's
+      stored trajectory dominates memory (measured in `benchmarks/README.md`).
 
     **Returns:** a [`TuneResult`][].
 
@@ -198,8 +235,10 @@ def tune(
         raise ValueError("tune: `resume=True` needs a `checkpoint` path.")
     if on_nonfinite not in ("raise", "stop"):
         raise ValueError(f"tune: `on_nonfinite` must be 'raise' or 'stop', got {on_nonfinite!r}.")
+    _check_mode(mode)
     check_parameters(template, parameters)
     _check_inputs(objective, template, inputs)
+    step = _loss_and_grad if mode == "reverse" else _loss_and_grad_forward
     if optimizer is None:
         optimizer = _DEFAULT_OPTIMIZER
 
@@ -223,9 +262,7 @@ def tune(
     bar = tqdm(total=steps, initial=start, desc="tune", disable=not progress)
     try:
         for k in range(start, steps):
-            (loss, aux), grads = _loss_and_grad(
-                state.unconstrained, template, parameters, objective, inputs
-            )
+            (loss, aux), grads = step(state.unconstrained, template, parameters, objective, inputs)
             loss_value = float(loss)
             bad = [name for name, g in grads.items() if not np.all(np.isfinite(np.asarray(g)))]
             if not math.isfinite(loss_value) or bad:
@@ -279,5 +316,6 @@ def evaluate(module: PyTree, objective: Callable, inputs: PyTree) -> tuple[Array
 
 
 @eqx.filter_jit
+@host_checked_program
 def _evaluate(module, objective, inputs):
     return objective(module, inputs)

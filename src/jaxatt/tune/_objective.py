@@ -178,6 +178,8 @@ class SettlingObjective(AbstractObjective):
       of the horizon).
     - `save_every`, `sampling`, `solver`, `performance`, `t0`: as
       [`jaxatt.montecarlo.monte_carlo`][] (the crossing is interpolated between saves).
+    - `checkpoint`: how reverse mode stores the loop, as [`jaxatt.simulate`][]'s (`True`,
+      `"nested"` for about $2\\sqrt N$ stored loop states over $N$ saves, `False`).
 
     Calling it as `objective(closed_loop, x0s)` (a batch of plant states with a leading axis)
     returns `(loss, aux)`, `aux` holding the per-sample metrics of `SAMPLE_METRICS` (the
@@ -208,6 +210,7 @@ class SettlingObjective(AbstractObjective):
         solver: AbstractFixedStepSolver | dfx.AbstractSolver = RK4(),
         performance: Performance | None = None,
         t0: float = 0.0,
+        checkpoint: bool | str = True,
     ):
         where = "SettlingObjective"
         self.simulation = Simulation(
@@ -217,6 +220,7 @@ class SettlingObjective(AbstractObjective):
             sampling=sampling,
             solver=solver,
             save_every=save_every,
+            checkpoint=checkpoint,
             performance=performance,
             where=where,
         )
@@ -289,7 +293,7 @@ class MetricObjective(AbstractObjective):
 
     **Arguments:**
     - `t1`, `dt`: horizon and step [s]; `save_every`, `sampling`, `solver`, `performance`,
-      `t0` as [`SettlingObjective`][].
+      `t0`, `checkpoint` as [`SettlingObjective`][].
     - `times`: name -> metric object whose value is a time (summed into the objective).
     - `limits`: name -> metric object the `penalties` bound (e.g. `Peak("force")`).
     - `penalties`: [`Penalty`][]s on names of `limits`.
@@ -320,6 +324,7 @@ class MetricObjective(AbstractObjective):
         solver: AbstractFixedStepSolver | dfx.AbstractSolver = RK4(),
         performance: Performance | None = None,
         t0: float = 0.0,
+        checkpoint: bool | str = True,
     ):
         where = "MetricObjective"
         self.simulation = Simulation(
@@ -329,6 +334,7 @@ class MetricObjective(AbstractObjective):
             sampling=sampling,
             solver=solver,
             save_every=save_every,
+            checkpoint=checkpoint,
             performance=performance,
             where=where,
         )
