@@ -131,8 +131,31 @@ def fenced_blocks(path: Path) -> list[tuple[str, str]]:
     return [(lang, textwrap.dedent(code)) for _, lang, code in _FENCE.findall(path.read_text())]
 
 
+_SNIPPET = re.compile(r'^--8<-- "([^"]+)"\s*$')
+
+
 def python_blocks(path: Path) -> list[str]:
-    return [code for lang, code in fenced_blocks(path) if lang in _PYTHON]
+    """The page's Python blocks, except those that only include a file (pymdownx.snippets,
+    `--8<-- "path"`): that file is code the suite runs elsewhere (it must exist and be run by a
+    test, see `test_included_files_are_run_by_a_test`)."""
+    return [
+        code for lang, code in fenced_blocks(path) if lang in _PYTHON and not _SNIPPET.match(code)
+    ]
+
+
+def test_included_files_are_run_by_a_test():
+    pages = [ROOT / "README.md", *sorted(DOCS.rglob("*.md"))]
+    included = {
+        m.group(1)
+        for page in pages
+        for _, code in fenced_blocks(page)
+        if (m := _SNIPPET.match(code))
+    }
+    tests_text = "\n".join(p.read_text() for p in (ROOT / "tests").rglob("test_*.py"))
+    for path in included:
+        assert (ROOT / path).is_file(), path
+        name = Path(path).name
+        assert name in tests_text, f"{path} is shown in the docs but no test names it"
 
 
 PAGES_WITH_CODE = [

@@ -54,8 +54,8 @@ def enable_compilation_cache(
     ```
 
     **Arguments:**
-    - `path`: the cache folder (created if missing). Default [`default_cache_dir`][]: the
-      environment variable `JAXATT_CACHE_DIR`, else `~/.cache/jaxatt/xla`.
+    - `path`: the cache folder (created if missing). Default: the environment variable
+      `JAXATT_CACHE_DIR`, else `$XDG_CACHE_HOME/jaxatt/xla` (`~/.cache/jaxatt/xla`).
     - `min_compile_time`: programs that compiled faster than this [s] are not written
       (JAX's `jax_persistent_cache_min_compile_time_secs`, whose own default is 1 s). jaxatt
       writes every program by default: a notebook compiles hundreds of small ones (plots,
