@@ -12,7 +12,18 @@ import pytest
 
 import jaxatt
 from jaxatt import montecarlo as mc
-from jaxatt.metrics import Absolute, Peak, SettlingTime, control_effort, peak, settling_time
+from jaxatt.metrics import (
+    Absolute,
+    Chattering,
+    ConvergenceTime,
+    Final,
+    Peak,
+    SettlingTime,
+    TimeOutside,
+    control_effort,
+    peak,
+    settling_time,
+)
 from jaxatt.numerics import safe_norm
 from jaxatt.plants import MRPState, QuaternionState
 from jaxatt.scenarios import chen2022_two_phase_power as chen
@@ -95,29 +106,51 @@ def test_monte_carlo_equals_a_python_loop_of_simulate(chen_batch):
         )
 
 
-def test_scalarized_batch_equals_the_plain_batch(chen_batch):
-    # scalarize=True (the default for large batches) changes the layout, not the numbers:
-    # batched loop fields, the failing sample and the metrics must all come out the same.
-    loop, x0s, inertias, disturbances, plain = chen_batch
+def test_streamed_default_equals_the_saved_trajectory_reduction(chen_batch):
+    # monte_carlo's default reduces the metrics on the fly (nothing saved). It must give what
+    # the saved-trajectory path gives (the fixture's run, keep_trajectories=True), for every
+    # kind of metric, at the save resolution, with the failed sample failed in both; once as
+    # the plain program and once scalarized (the default from 1000 samples): scalarize=True
+    # changes the layout, not the numbers (batched loop fields and the failure included).
+    loop, x0s, inertias, disturbances, saved = chen_batch
     batched, axes = mc.batch_field(loop, lambda m: m.plant.body.inertia, inertias)
     batched, axes = mc.batch_field(batched, lambda m: m.plant.body.disturbance, disturbances, axes)
-    fast = mc.monte_carlo(
-        batched,
-        x0s,
-        0.0,
-        HORIZON,
-        dt=DT,
-        loop_axes=axes,
-        save_every=SAVE_EVERY,
-        performance=Performance(scalarize=True),
+    objects = dict(
+        loop.default_metrics(1e-2),
+        per_axis=SettlingTime("attitude_error_vector", 1e-2, Absolute()),
+        outside=TimeOutside("attitude_error_vector", 1e-2),
+        convergence=ConvergenceTime("attitude_error_vector", 1e-3),
+        final=Final("rate_error"),
+        chattering=Chattering("u", 0.5, 2.5),
     )
-    np.testing.assert_array_equal(fast.status, plain.status)
-    np.testing.assert_array_equal(fast.failure_time, plain.failure_time)
-    ok = np.asarray(plain.successful)
-    for name, value in plain.metrics.items():
-        np.testing.assert_allclose(
-            np.asarray(fast.metrics[name])[ok], np.asarray(value)[ok], rtol=1e-9, err_msg=name
+    trajs = saved.trajectories
+    ok = np.asarray(saved.successful)
+    for scalarize in (False, True):
+        streamed = mc.monte_carlo(
+            batched,
+            x0s,
+            0.0,
+            HORIZON,
+            dt=DT,
+            loop_axes=axes,
+            save_every=SAVE_EVERY,
+            metrics=objects,
+            performance=Performance(scalarize=scalarize),
         )
+        assert streamed.trajectories is None  # nothing saved by default
+        np.testing.assert_array_equal(streamed.status, saved.status)
+        np.testing.assert_array_equal(streamed.failure_time, saved.failure_time)
+        for name, metric in objects.items():
+            expected = np.asarray(jax.vmap(metric)(trajs))
+            expected = np.where(
+                ok.reshape(-1, *[1] * (expected.ndim - 1)), expected, metric.failure_value
+            )
+            got = np.asarray(streamed.metrics[name])
+            np.testing.assert_array_equal(np.isnan(got), np.isnan(expected), err_msg=name)
+            np.testing.assert_array_equal(np.isposinf(got), np.isposinf(expected), err_msg=name)
+            finite = np.isfinite(expected)
+            np.testing.assert_allclose(got[finite], expected[finite], rtol=1e-12, err_msg=name)
+        assert np.asarray(streamed.metrics["settling_time"])[BAD] == math.inf
 
 
 def test_default_scalarization_rule():
