@@ -61,6 +61,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     )
     p.add_argument("--out", default=str(HERE / "results" / "defaults.json"))
     p.add_argument("--worker", help=argparse.SUPPRESS)  # path of a worker's output (.npz)
+    p.add_argument("--x0-from", help=argparse.SUPPRESS)  # a worker's output: its samples
     return p.parse_args(argv)
 
 
@@ -85,7 +86,12 @@ def worker(args) -> None:
     horizon, n_steps = args.horizon, round(args.horizon / DT)
     loop = chen.build("M1")
     _quick.check_scenario(loop)
-    q, omega = _quick.initial_states(0, max(args.batches), dtype)
+    if args.x0_from:  # the float64 worker's samples, rounded (a float32 process draws others)
+        with np.load(args.x0_from) as saved:
+            q, omega = saved["x0/q"].astype(dtype), saved["x0/omega"].astype(dtype)
+    else:
+        q, omega = _quick.initial_states(0, max(args.batches), dtype)
+    arrays_x0 = {"x0/q": q, "x0/omega": omega}
 
     @eqx.filter_jit
     def default(loop, x0s):
@@ -156,10 +162,12 @@ def worker(args) -> None:
         "load_average": os.getloadavg(),
         "rows": rows,
     }
-    np.savez(args.worker, info=json.dumps(info), **arrays)
+    np.savez(args.worker, info=json.dumps(info), **arrays, **arrays_x0)
 
 
-def run_worker(args, src: pathlib.Path, out: pathlib.Path) -> tuple[dict, dict]:
+def run_worker(
+    args, src: pathlib.Path, out: pathlib.Path, x0_from: pathlib.Path | None = None
+) -> tuple[dict, dict]:
     import numpy as np
 
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(src), str(HERE)]))
@@ -167,6 +175,7 @@ def run_worker(args, src: pathlib.Path, out: pathlib.Path) -> tuple[dict, dict]:
     cmd += ["--batches", *map(str, args.batches), "--horizon", str(args.horizon)]
     cmd += ["--repeat", str(args.repeat), "--max-seconds", str(args.max_seconds)]
     cmd += ["--float32"] if args.float32 else []
+    cmd += ["--x0-from", str(x0_from)] if x0_from else []
     print(f"worker: jaxatt from {src}", flush=True)
     subprocess.run(cmd, env=env, check=True)
     data = np.load(out)
@@ -198,7 +207,7 @@ def float32_accuracy(batches, f32: dict, f64: dict) -> list[dict]:
     out = []
     for batch in batches:
         row = {"batch": batch}
-        for key in sorted(k for k in f64 if k.startswith(f"{batch}/metric/")):
+        for key in sorted(k for k in f64 if k.startswith(f"{batch}/metric/")):  # same samples
             x, y = np.asarray(f32[key], np.float64), np.asarray(f64[key], np.float64)
             both = np.isfinite(x) & np.isfinite(y)
             name = key.rsplit("/", 1)[1]
@@ -245,6 +254,7 @@ def main(args) -> int:
                 argparse.Namespace(**dict(vars(args), float32=True)),
                 ROOT / "src",
                 tmp / "f32.npz",
+                x0_from=tmp / "new.npz",
             )
             result["float32"] = f32_info
             result["float32_vs_float64"] = float32_accuracy(args.batches, f32, new)
