@@ -289,6 +289,20 @@ def test_4096_samples_in_one_compiled_call():
     assert not np.allclose(first.metrics["final_error"], second.metrics["final_error"])
 
 
+def test_streaming_is_chosen_only_when_every_metric_streams():
+    # A metric function (or an object without a streaming form) falls back to the saved
+    # trajectory; run_batch refuses to stream what cannot stream instead of guessing.
+    objects = {"settling": SettlingTime("attitude_error_vector", 1e-2), "peak": Peak("u")}
+    assert mc.streamable(objects)
+    assert not mc.streamable(lambda traj: {})
+    assert not mc.streamable(dict(objects, margin=jaxatt.performance.MinimumMargin()))
+    sim = jaxatt.simulation.Simulation(0.0, 0.1, 1e-2)
+    with pytest.raises(ValueError, match="stream=True"):
+        mc.run_batch(mrp_pd_loop(), None, sim, lambda traj: {}, stream=True)
+    with pytest.raises(ValueError, match="stream=True"):
+        mc.run_batch(mrp_pd_loop(), None, sim, objects, stream=True, keep_trajectories=True)
+
+
 def test_batch_field_in_axes():
     loop = mrp_pd_loop()
     inertias = jnp.stack([loop.plant.body.inertia] * 3)
