@@ -1,6 +1,7 @@
 """`monte_carlo` and `batch_field`: equal to a Python loop of `simulate`, failures counted,
 chunking, batched closed-loop fields, one compilation for 4096 samples, and the summaries."""
 
+import functools as ft
 import math
 
 import equinox as eqx
@@ -16,6 +17,7 @@ from jaxatt.metrics import (
     Absolute,
     Chattering,
     ConvergenceTime,
+    Effort,
     Final,
     Peak,
     SettlingTime,
@@ -287,6 +289,32 @@ def test_4096_samples_in_one_compiled_call():
     assert first.metrics["final_error"].shape == (n,)
     assert bool(jnp.all(first.successful))
     assert not np.allclose(first.metrics["final_error"], second.metrics["final_error"])
+
+
+def test_streamed_metrics_under_a_zero_order_hold_equal_the_saved_ones(pd_batch):
+    # Under a delayed zero-order hold the saved signals are the right-continuous outputs of
+    # each sample instant; the stream must see exactly those, every step and every 3rd step.
+    loop, x0s = pd_batch
+    objects = {
+        "settling": SettlingTime("attitude_error_vector", 0.3),
+        "peak": Peak("u", Absolute()),
+        "effort": Effort(),
+        "chattering": Chattering("u"),
+        "final_u": Final("u", Absolute()),
+    }
+    hold = jaxatt.simulation.ZeroOrderHold(0.04, delay=True)
+    run = ft.partial(mc.monte_carlo, loop, x0s, 0.0, 0.6, dt=1e-2, sampling=hold, metrics=objects)
+    trajs = run(keep_trajectories=True).trajectories
+    for every in (1, 3):
+        streamed = run(save_every=every)
+        sub = jax.tree.map(lambda x: x[:, ::every], (trajs.ts, trajs.signals))
+        saved = eqx.tree_at(lambda tr: (tr.ts, tr.signals), trajs, sub)
+        for name, metric in objects.items():
+            np.testing.assert_allclose(
+                streamed.metrics[name], jax.vmap(metric)(saved), rtol=1e-12, err_msg=name
+            )
+    u = np.asarray(trajs.signals["u"])
+    assert np.all(u[:, :4] == 0) and np.any(u[:, 5] != 0)  # the delay is exercised
 
 
 def test_streaming_is_chosen_only_when_every_metric_streams():
