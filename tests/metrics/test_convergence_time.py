@@ -6,6 +6,9 @@ finite differences of the same function for gradients (agreement to ~1e-8 relati
 rounding of a 1e-6 step; 1e-6 leaves margin).
 """
 
+from types import SimpleNamespace
+
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -14,11 +17,15 @@ import pytest
 from jaxatt import metrics
 from jaxatt.metrics import (
     Absolute,
+    Chattering,
     ConvergenceTime,
+    Effort,
     Euclidean,
+    Final,
     MaxAbs,
     Peak,
     SettlingTime,
+    TimeOutside,
     convergence_time,
     moving_average,
     settling_time,
@@ -162,3 +169,89 @@ def test_moving_average_removes_a_chatter_and_keeps_a_bias():
     with pytest.raises(ValueError, match="`window` must be positive"):
         moving_average(ts, chatter, 0.0)
     assert metrics.moving_average is moving_average
+
+
+# --- Streaming: every metric object reduced on the fly equals its trajectory reduction -------
+
+
+def _records(seed=0, n=10, t_len=61):
+    """A batch of records with repeated band crossings, non-uniform times and bad samples."""
+    rng = np.random.default_rng(seed)
+    ts = np.sort(np.concatenate([[0.0], rng.uniform(0.0, 12.0, t_len - 1)]))
+    a, r = rng.uniform(0.02, 0.2, (n, 1, 3)), rng.uniform(0.2, 1.0, (n, 1, 3))
+    w, phi = rng.uniform(2.0, 6.0, (n, 1, 3)), rng.uniform(0.0, 6.0, (n, 1, 3))
+    t = ts[None, :, None]
+    e = a * np.exp(-r * t) * (1.0 + 0.9 * np.sin(w * t + phi))
+    u = np.sign(np.sin(3 * w[..., :2] * t)) * a[..., :2] + 0.01 * rng.normal(size=(n, t_len, 2))
+    e[0, 30] = np.nan  # a NaN sample inside the record
+    e[1, -1], u[1, -1] = np.nan, np.nan  # a NaN last sample
+    e[2, 10, 1], u[2, 10, 0] = np.inf, np.inf  # an inf sample
+    e[3] = 0.0  # always inside the band (exact zeros)
+    e[4] = 1.0  # never inside
+    e[5, 20:] = 0.0
+    e[5, 20, 0] = 1e-2  # a sample exactly on the band
+    return jnp.asarray(ts), {"e": jnp.asarray(e), "u": jnp.asarray(u)}
+
+
+STREAMING_METRICS = {
+    "settling": SettlingTime("e", 1e-2),
+    "settling_inf": SettlingTime("e", 1e-2, MaxAbs()),
+    "settling_axis": SettlingTime("e", 1e-2, Absolute()),
+    "outside": TimeOutside("e", 1e-2),
+    "outside_axis": TimeOutside("e", 1e-2, Absolute()),
+    "convergence": ConvergenceTime("e", 1e-3),
+    "convergence_window": ConvergenceTime("e", 1e-2, MaxAbs(), window=0.7),
+    "peak": Peak("u"),
+    "peak_axis": Peak("e", Absolute()),
+    "final": Final("e"),
+    "effort": Effort(),
+    "chattering": Chattering("u"),
+    "chattering_window": Chattering("u", 1.0, 4.0),
+}
+
+
+@eqx.filter_jit
+def _both_ways(metric_objects, ts, signals):
+    """(streamed, reduced) values of every metric of `metric_objects`, batched."""
+
+    def one(signals):
+        traj = SimpleNamespace(ts=ts, signals=signals)
+        reduced = {name: m(traj) for name, m in metric_objects.items()}
+
+        def sample(k):
+            return {key: value[k] for key, value in signals.items()}
+
+        def step(state, k):
+            return {
+                name: m.stream_update(state[name], ts[k], sample(k))
+                for name, m in metric_objects.items()
+            }, None
+
+        state = {
+            name: m.stream_init(ts[0], sample(0), ts[-1]) for name, m in metric_objects.items()
+        }
+        state, _ = jax.lax.scan(step, state, jnp.arange(1, ts.shape[0]))
+        streamed = {name: m.stream_value(state[name]) for name, m in metric_objects.items()}
+        return streamed, reduced
+
+    return jax.vmap(one)(signals)
+
+
+def test_streamed_metrics_equal_the_trajectory_reduction_bad_samples_included():
+    ts, signals = _records()
+    streamed, reduced = _both_ways(STREAMING_METRICS, ts, signals)
+    for name in STREAMING_METRICS:
+        got, expected = np.asarray(streamed[name]), np.asarray(reduced[name])
+        assert got.shape == expected.shape, name
+        # inf and NaN exactly where the reduction has them (a failure looks like a failure)
+        np.testing.assert_array_equal(np.isnan(got), np.isnan(expected), err_msg=name)
+        np.testing.assert_array_equal(np.isposinf(got), np.isposinf(expected), err_msg=name)
+        finite = np.isfinite(expected)
+        np.testing.assert_allclose(got[finite], expected[finite], rtol=1e-12, err_msg=name)
+    # The records exercise what they are meant to: re-entries, never/always inside, NaN.
+    settling = np.asarray(reduced["settling"])
+    assert settling[3] == 0.0 and settling[4] == np.inf and settling[1] == np.inf
+    assert np.isnan(np.asarray(reduced["peak"])[1]) and np.isfinite(settling).sum() >= 5
+    outside = np.asarray(reduced["outside"])
+    assert np.sum(outside[np.isfinite(settling)] < settling[np.isfinite(settling)] - 1e-3) >= 2
+    assert all(m.streams for m in STREAMING_METRICS.values())

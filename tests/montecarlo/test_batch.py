@@ -1,6 +1,7 @@
 """`monte_carlo` and `batch_field`: equal to a Python loop of `simulate`, failures counted,
 chunking, batched closed-loop fields, one compilation for 4096 samples, and the summaries."""
 
+import functools as ft
 import math
 
 import equinox as eqx
@@ -12,7 +13,19 @@ import pytest
 
 import jaxatt
 from jaxatt import montecarlo as mc
-from jaxatt.metrics import Absolute, Peak, SettlingTime, control_effort, peak, settling_time
+from jaxatt.metrics import (
+    Absolute,
+    Chattering,
+    ConvergenceTime,
+    Effort,
+    Final,
+    Peak,
+    SettlingTime,
+    TimeOutside,
+    control_effort,
+    peak,
+    settling_time,
+)
 from jaxatt.numerics import safe_norm
 from jaxatt.plants import MRPState, QuaternionState
 from jaxatt.scenarios import chen2022_two_phase_power as chen
@@ -95,29 +108,51 @@ def test_monte_carlo_equals_a_python_loop_of_simulate(chen_batch):
         )
 
 
-def test_scalarized_batch_equals_the_plain_batch(chen_batch):
-    # scalarize=True (the default for large batches) changes the layout, not the numbers:
-    # batched loop fields, the failing sample and the metrics must all come out the same.
-    loop, x0s, inertias, disturbances, plain = chen_batch
+def test_streamed_default_equals_the_saved_trajectory_reduction(chen_batch):
+    # monte_carlo's default reduces the metrics on the fly (nothing saved). It must give what
+    # the saved-trajectory path gives (the fixture's run, keep_trajectories=True), for every
+    # kind of metric, at the save resolution, with the failed sample failed in both; once as
+    # the plain program and once scalarized (the default from 1000 samples): scalarize=True
+    # changes the layout, not the numbers (batched loop fields and the failure included).
+    loop, x0s, inertias, disturbances, saved = chen_batch
     batched, axes = mc.batch_field(loop, lambda m: m.plant.body.inertia, inertias)
     batched, axes = mc.batch_field(batched, lambda m: m.plant.body.disturbance, disturbances, axes)
-    fast = mc.monte_carlo(
-        batched,
-        x0s,
-        0.0,
-        HORIZON,
-        dt=DT,
-        loop_axes=axes,
-        save_every=SAVE_EVERY,
-        performance=Performance(scalarize=True),
+    objects = dict(
+        loop.default_metrics(1e-2),
+        per_axis=SettlingTime("attitude_error_vector", 1e-2, Absolute()),
+        outside=TimeOutside("attitude_error_vector", 1e-2),
+        convergence=ConvergenceTime("attitude_error_vector", 1e-3),
+        final=Final("rate_error"),
+        chattering=Chattering("u", 0.5, 2.5),
     )
-    np.testing.assert_array_equal(fast.status, plain.status)
-    np.testing.assert_array_equal(fast.failure_time, plain.failure_time)
-    ok = np.asarray(plain.successful)
-    for name, value in plain.metrics.items():
-        np.testing.assert_allclose(
-            np.asarray(fast.metrics[name])[ok], np.asarray(value)[ok], rtol=1e-9, err_msg=name
+    trajs = saved.trajectories
+    ok = np.asarray(saved.successful)
+    for scalarize in (False, True):
+        streamed = mc.monte_carlo(
+            batched,
+            x0s,
+            0.0,
+            HORIZON,
+            dt=DT,
+            loop_axes=axes,
+            save_every=SAVE_EVERY,
+            metrics=objects,
+            performance=Performance(scalarize=scalarize),
         )
+        assert streamed.trajectories is None  # nothing saved by default
+        np.testing.assert_array_equal(streamed.status, saved.status)
+        np.testing.assert_array_equal(streamed.failure_time, saved.failure_time)
+        for name, metric in objects.items():
+            expected = np.asarray(jax.vmap(metric)(trajs))
+            expected = np.where(
+                ok.reshape(-1, *[1] * (expected.ndim - 1)), expected, metric.failure_value
+            )
+            got = np.asarray(streamed.metrics[name])
+            np.testing.assert_array_equal(np.isnan(got), np.isnan(expected), err_msg=name)
+            np.testing.assert_array_equal(np.isposinf(got), np.isposinf(expected), err_msg=name)
+            finite = np.isfinite(expected)
+            np.testing.assert_allclose(got[finite], expected[finite], rtol=1e-12, err_msg=name)
+        assert np.asarray(streamed.metrics["settling_time"])[BAD] == math.inf
 
 
 def test_default_scalarization_rule():
@@ -254,6 +289,46 @@ def test_4096_samples_in_one_compiled_call():
     assert first.metrics["final_error"].shape == (n,)
     assert bool(jnp.all(first.successful))
     assert not np.allclose(first.metrics["final_error"], second.metrics["final_error"])
+
+
+def test_streamed_metrics_under_a_zero_order_hold_equal_the_saved_ones(pd_batch):
+    # Under a delayed zero-order hold the saved signals are the right-continuous outputs of
+    # each sample instant; the stream must see exactly those, every step and every 3rd step.
+    loop, x0s = pd_batch
+    objects = {
+        "settling": SettlingTime("attitude_error_vector", 0.3),
+        "peak": Peak("u", Absolute()),
+        "effort": Effort(),
+        "chattering": Chattering("u"),
+        "final_u": Final("u", Absolute()),
+    }
+    hold = jaxatt.simulation.ZeroOrderHold(0.04, delay=True)
+    run = ft.partial(mc.monte_carlo, loop, x0s, 0.0, 0.6, dt=1e-2, sampling=hold, metrics=objects)
+    trajs = run(keep_trajectories=True).trajectories
+    for every in (1, 3):
+        streamed = run(save_every=every)
+        sub = jax.tree.map(lambda x: x[:, ::every], (trajs.ts, trajs.signals))
+        saved = eqx.tree_at(lambda tr: (tr.ts, tr.signals), trajs, sub)
+        for name, metric in objects.items():
+            np.testing.assert_allclose(
+                streamed.metrics[name], jax.vmap(metric)(saved), rtol=1e-12, err_msg=name
+            )
+    u = np.asarray(trajs.signals["u"])
+    assert np.all(u[:, :4] == 0) and np.any(u[:, 5] != 0)  # the delay is exercised
+
+
+def test_streaming_is_chosen_only_when_every_metric_streams():
+    # A metric function (or an object without a streaming form) falls back to the saved
+    # trajectory; run_batch refuses to stream what cannot stream instead of guessing.
+    objects = {"settling": SettlingTime("attitude_error_vector", 1e-2), "peak": Peak("u")}
+    assert mc.streamable(objects)
+    assert not mc.streamable(lambda traj: {})
+    assert not mc.streamable(dict(objects, margin=jaxatt.performance.MinimumMargin()))
+    sim = jaxatt.simulation.Simulation(0.0, 0.1, 1e-2)
+    with pytest.raises(ValueError, match="stream=True"):
+        mc.run_batch(mrp_pd_loop(), None, sim, lambda traj: {}, stream=True)
+    with pytest.raises(ValueError, match="stream=True"):
+        mc.run_batch(mrp_pd_loop(), None, sim, objects, stream=True, keep_trajectories=True)
 
 
 def test_batch_field_in_axes():

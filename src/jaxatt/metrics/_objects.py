@@ -18,6 +18,14 @@ Every metric declares the value a **failed** sample gets (`failure_value`): `inf
 NaN for everything else. The batch runner writes it in place of the computed value for every
 sample whose simulation did not succeed, so a diverged sample can never look like the best
 one.
+
+**Streaming.** Every metric here can also be reduced *on the fly*, one saved sample at a time,
+without the trajectory ever being stored: `stream_init(t, signals, t_last)` on the first
+sample (`t_last` is the time of the last one), `stream_update(state, t, signals)` on each
+following sample in time order, `stream_value(state)` at the end. The result equals
+`metric(traj)` on the trajectory of those samples to round-off (the only difference is the
+order of a sum). [`jaxatt.montecarlo.monte_carlo`][] streams by default; a metric that sets
+`streams = False` (the default of [`AbstractMetric`][]) is reduced from the saved trajectory.
 """
 
 import abc
@@ -26,7 +34,7 @@ from typing import ClassVar
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-from jaxtyping import Array, Float
+from jaxtyping import Array, Float, PyTree
 
 from .._custom_types import RealScalarLike
 from .._validation import check_positive
@@ -104,10 +112,27 @@ class AbstractMetric(eqx.Module):
     """
 
     failure_value: ClassVar[float] = float("nan")
+    streams: ClassVar[bool] = False
+    """Whether the metric implements the streaming protocol (`stream_init`, `stream_update`,
+    `stream_value`); if not, batch runners reduce a saved trajectory with `__call__`."""
 
     @abc.abstractmethod
     def __call__(self, traj) -> Array:
         """The metric of one (unbatched) trajectory."""
+
+    def stream_init(self, t: Array, signals: dict[str, Array], t_last: Array) -> PyTree:
+        """The running state after the first sample `signals` at time `t` (one trajectory);
+        `t_last` is the time of the last sample that will be streamed."""
+        raise NotImplementedError(f"{type(self).__name__} has no streaming form.")
+
+    def stream_update(self, state: PyTree, t: Array, signals: dict[str, Array]) -> PyTree:
+        """The running state after one more sample, at time `t` (after the previous one)."""
+        raise NotImplementedError(f"{type(self).__name__} has no streaming form.")
+
+    def stream_value(self, state: PyTree) -> Array:
+        """The metric from the running state after the last sample: equal to `__call__` on
+        the trajectory of the streamed samples, up to the order of a sum."""
+        raise NotImplementedError(f"{type(self).__name__} has no streaming form.")
 
 
 def _signal(traj, name: str) -> Array:
@@ -116,6 +141,48 @@ def _signal(traj, name: str) -> Array:
             f"metrics: the trajectory has no signal {name!r}; it has {sorted(traj.signals)}."
         )
     return traj.signals[name]
+
+
+def _sample(signals: dict, name: str) -> Array:
+    """One sample of a signal (no time axis), from a dict of signals at one time."""
+    if name not in signals:
+        raise ValueError(
+            f"metrics: the trajectory has no signal {name!r}; it has {sorted(signals)}."
+        )
+    return jnp.asarray(signals[name])
+
+
+def _magnitude(norm: AbstractNorm, signals: dict, name: str) -> Array:
+    """`norm` of one sample: the norm of a one-sample record, time axis dropped."""
+    return norm(_sample(signals, name)[None])[0]
+
+
+def _outside(x: Array, tol: Array) -> Array:
+    return ~(x <= tol)  # NaN counts as outside
+
+
+def _crossing_in(t_prev, x_prev, t, x, tol) -> Array:
+    """Time of the downward crossing of `tol` between two samples (the interpolation of
+    [`settling_time`][]); the later time when `x_prev` is not finite. Double where: the
+    denominator of a non-crossing never enters the graph."""
+    interpolate = _outside(x_prev, tol) & ~_outside(x, tol) & jnp.isfinite(x_prev)
+    safe_prev = jnp.where(interpolate, x_prev, 1.0)
+    safe_x = jnp.where(interpolate, x, 0.0)
+    safe_tol = jnp.where(interpolate, tol, 0.5)
+    fraction = (safe_prev - safe_tol) / (safe_prev - safe_x)
+    return jnp.where(interpolate, t_prev + fraction * (t - t_prev), t)
+
+
+def _outside_fraction(x_prev, x, tol) -> Array:
+    """Fraction of the interval between two samples spent above `tol` ([`time_outside`][])."""
+    above_prev, above = _outside(x_prev, tol), _outside(x, tol)
+    a, b = x_prev - tol, x - tol
+    one_side = above_prev != above
+    crossing = one_side & jnp.isfinite(a) & jnp.isfinite(b)
+    numerator = jnp.where(crossing, jnp.where(a > 0, a, b), 0.0)
+    denominator = jnp.where(crossing, jnp.abs(a) + jnp.abs(b), 1.0)
+    whole = jnp.where((above_prev & above) | one_side, 1.0, 0.0)
+    return jnp.where(crossing, numerator / denominator, whole)
 
 
 class _AbstractBandTime(AbstractMetric):
@@ -127,9 +194,7 @@ class _AbstractBandTime(AbstractMetric):
     norm: AbstractNorm
     failure_value: ClassVar[float] = float("inf")
 
-    def __init__(
-        self, signal: str, tolerance: RealScalarLike, norm: AbstractNorm | None = None
-    ):
+    def __init__(self, signal: str, tolerance: RealScalarLike, norm: AbstractNorm | None = None):
         self.signal = str(signal)
         self.tolerance = check_positive(type(self).__name__, "tolerance", tolerance)
         self.norm = Euclidean() if norm is None else norm
@@ -141,6 +206,9 @@ class _AbstractBandTime(AbstractMetric):
     def __call__(self, traj) -> Array:
         x = self.norm(_signal(traj, self.signal))
         return _per_component(self._time, traj.ts, x)
+
+    def _x(self, signals) -> Array:
+        return _magnitude(self.norm, signals, self.signal)
 
 
 class SettlingTime(_AbstractBandTime):
@@ -154,16 +222,54 @@ class SettlingTime(_AbstractBandTime):
     - `norm`: [`Euclidean`][]`()` (default), [`MaxAbs`][]`()`, [`Absolute`][]`()`, ...
     """
 
+    streams: ClassVar[bool] = True
+
     def _time(self, ts, x):
         return settling_time(ts, x, self.tolerance)
+
+    # Running state: the last sample and the settling time of the record so far (the
+    # interpolated last entry into the band; inf while outside; t0 if never outside).
+    def stream_init(self, t, signals, t_last):
+        x = self._x(signals)
+        dtype = jnp.result_type(t, x)
+        settled_at = jnp.where(_outside(x, self.tolerance), jnp.inf, t).astype(dtype)
+        return t, x, settled_at
+
+    def stream_update(self, state, t, signals):
+        t_prev, x_prev, settled_at = state
+        x = self._x(signals)
+        entering = _outside(x_prev, self.tolerance) & ~_outside(x, self.tolerance)
+        crossing = _crossing_in(t_prev, x_prev, t, x, self.tolerance)
+        new = jnp.where(
+            _outside(x, self.tolerance), jnp.inf, jnp.where(entering, crossing, settled_at)
+        )
+        return t, x, new.astype(settled_at.dtype)
+
+    def stream_value(self, state):
+        return state[2]
 
 
 class TimeOutside(_AbstractBandTime):
     """Total time `norm(signal)` spends above `tolerance` ([`time_outside`][]); NaN counts as
     outside; `inf` for a failed sample. Arguments as [`SettlingTime`][]."""
 
+    streams: ClassVar[bool] = True
+
     def _time(self, ts, x):
         return time_outside(ts, x, self.tolerance)
+
+    def stream_init(self, t, signals, t_last):
+        x = self._x(signals)
+        return t, x, jnp.zeros_like(x, dtype=jnp.result_type(t, x))
+
+    def stream_update(self, state, t, signals):
+        t_prev, x_prev, total = state
+        x = self._x(signals)
+        step = _outside_fraction(x_prev, x, self.tolerance) * (t - t_prev)
+        return t, x, (total + step).astype(total.dtype)
+
+    def stream_value(self, state):
+        return state[2]
 
 
 class ConvergenceTime(AbstractMetric):
@@ -195,11 +301,62 @@ class ConvergenceTime(AbstractMetric):
             window = check_positive("ConvergenceTime", "window", window)
         self.window = window
 
+    streams: ClassVar[bool] = True
+
     def __call__(self, traj) -> Array:
         x = self.norm(_signal(traj, self.signal))
         return _per_component(
             lambda ts, v: convergence_time(ts, v, self.tolerance, self.window), traj.ts, x
         )
+
+    # Running state: t0, the decay-window target time, the time outside so far, the last
+    # sample, and the sample closest to the target (the first such, never the last sample:
+    # as [`convergence_time`][]'s argmin clipped to T - 2).
+    def stream_init(self, t, signals, t_last):
+        x = _magnitude(self.norm, signals, self.signal)
+        dtype = jnp.result_type(t, x)
+        window = 0.1 * (t_last - t) if self.window is None else self.window
+        target = t_last - window
+        distance = jnp.where(t < t_last, jnp.abs(t - target), jnp.inf)
+        zero = jnp.zeros_like(x, dtype=dtype)
+        return t, t_last, target, t, x, zero, distance, x, t
+
+    def stream_update(self, state, t, signals):
+        t0, t_last, target, t_prev, x_prev, outside, best, x_k, t_k = state
+        x = _magnitude(self.norm, signals, self.signal)
+        outside = outside + _outside_fraction(x_prev, x, self.tolerance) * (t - t_prev)
+        distance = jnp.where(t < t_last, jnp.abs(t - target), jnp.inf)
+        closer = distance < best
+        return (
+            t0,
+            t_last,
+            target,
+            t,
+            x,
+            outside.astype(state[5].dtype),
+            jnp.where(closer, distance, best),
+            jnp.where(closer, x, x_k),
+            jnp.where(closer, t, t_k),
+        )
+
+    def stream_value(self, state):
+        t0, _, _, t_end, last, outside, _, x_k, t_k = state
+        dtype = outside.dtype
+        tol = self.tolerance
+        span = t_end - t_k
+        unsettled = _outside(last, tol)
+        finite = jnp.isfinite(last) & jnp.isfinite(x_k)
+        positive = finite & (last > 0) & (x_k > 0)
+        safe_last = jnp.where(positive, last, 1.0)
+        safe_first = jnp.where(positive, x_k, 1.0)
+        rate = (jnp.log(safe_first) - jnp.log(safe_last)) / span
+        rate = jnp.maximum(rate, 1 / (t_end - t0))
+        safe_unsettled = unsettled & positive
+        remaining = jnp.where(
+            safe_unsettled, jnp.log(jnp.where(safe_unsettled, safe_last, tol) / tol) / rate, 0.0
+        )
+        total = t0 + outside + remaining
+        return jnp.where(unsettled & ~finite, jnp.inf, total).astype(dtype)
 
 
 class Peak(AbstractMetric):
@@ -213,8 +370,19 @@ class Peak(AbstractMetric):
         self.signal = str(signal)
         self.norm = MaxAbs() if norm is None else norm
 
+    streams: ClassVar[bool] = True
+
     def __call__(self, traj) -> Array:
         return jnp.max(self.norm(_signal(traj, self.signal)), axis=0)
+
+    def stream_init(self, t, signals, t_last):
+        return _magnitude(self.norm, signals, self.signal)
+
+    def stream_update(self, state, t, signals):
+        return jnp.maximum(state, _magnitude(self.norm, signals, self.signal))  # NaN stays
+
+    def stream_value(self, state):
+        return state
 
 
 class Final(AbstractMetric):
@@ -228,8 +396,19 @@ class Final(AbstractMetric):
         self.signal = str(signal)
         self.norm = Euclidean() if norm is None else norm
 
+    streams: ClassVar[bool] = True
+
     def __call__(self, traj) -> Array:
         return self.norm(_signal(traj, self.signal))[-1]
+
+    def stream_init(self, t, signals, t_last):
+        return _magnitude(self.norm, signals, self.signal)
+
+    def stream_update(self, state, t, signals):
+        return _magnitude(self.norm, signals, self.signal)
+
+    def stream_value(self, state):
+        return state
 
 
 class Effort(AbstractMetric):
@@ -238,9 +417,27 @@ class Effort(AbstractMetric):
 
     signal: str = eqx.field(default="u", static=True)
 
+    streams: ClassVar[bool] = True
+
     def __call__(self, traj) -> Array:
         u = _signal(traj, self.signal)
         return control_effort(traj.ts, u.reshape(u.shape[0], -1))
+
+    def _power(self, signals) -> Array:
+        u = _sample(signals, self.signal).reshape(-1)
+        return jnp.sum(u * u)
+
+    def stream_init(self, t, signals, t_last):
+        power = self._power(signals)
+        return t, power, jnp.zeros((), jnp.result_type(t, power))
+
+    def stream_update(self, state, t, signals):
+        t_prev, power_prev, total = state
+        power = self._power(signals)
+        return t, power, (total + 0.5 * (power + power_prev) * (t - t_prev)).astype(total.dtype)
+
+    def stream_value(self, state):
+        return state[2]
 
 
 class Chattering(AbstractMetric):
@@ -261,6 +458,22 @@ class Chattering(AbstractMetric):
         self.start = jnp.asarray(start, dtype=jnp.result_type(float))
         self.end = jnp.asarray(end, dtype=jnp.result_type(float))
 
+    streams: ClassVar[bool] = True
+
     def __call__(self, traj) -> Array:
         u = _signal(traj, self.signal)
         return chattering(traj.ts, u.reshape(u.shape[0], -1), self.start, self.end)
+
+    def stream_init(self, t, signals, t_last):
+        u = _sample(signals, self.signal).reshape(-1)
+        return t, u, jnp.zeros((), jnp.result_type(t, u))
+
+    def stream_update(self, state, t, signals):
+        t_prev, u_prev, total = state
+        u = _sample(signals, self.signal).reshape(-1)
+        inside = (t_prev >= self.start) & (t <= self.end)
+        step = jnp.where(inside, jnp.sum(jnp.abs(u - u_prev)), 0.0)
+        return t, u, (total + step).astype(total.dtype)
+
+    def stream_value(self, state):
+        return state[2]

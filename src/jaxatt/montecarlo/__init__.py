@@ -7,17 +7,21 @@
   [`batch_field`][] puts a batch into a closed loop.
 - Runs: [`monte_carlo`][] (checked inputs, vmap, `lax.map` chunks, sharding over devices)
   over [`run_batch`][], the one batch runner every batched simulation in jaxatt uses (the
-  tuning objectives too), with [`default_metrics`][]; it returns a [`MonteCarloResult`][]
+  tuning objectives too), with [`default_metrics`][] reduced on the fly by default
+  ([`MetricStream`][], nothing stored unless `keep_trajectories=True`); it returns a
+  [`MonteCarloResult`][]
   with `summary()`, `table()` and `to_dict()`; [`summary_table`][] compares several batches.
 """
 
 from ._batch import (
     Metrics as Metrics,
+    MetricStream as MetricStream,
     batch_field as batch_field,
     default_metrics as default_metrics,
     evaluate_metrics as evaluate_metrics,
     monte_carlo as monte_carlo,
     run_batch as run_batch,
+    streamable as streamable,
 )
 from ._samplers import (
     attitudes_within as attitudes_within,

@@ -2,7 +2,10 @@
 
 `run_batch` is what every batched simulation in jaxatt runs: `monte_carlo`, the tuning
 objectives, the scenarios' batched reproductions and the benchmarks. A tuning objective and a
-Monte Carlo study with the same settings therefore run (and differentiate) the same program.
+Monte Carlo study with the same settings therefore run (and differentiate) the same time loop.
+`monte_carlo` streams its metrics by default (`stream=True`: reduced inside the loop, nothing
+saved); the tuning objectives reduce a saved trajectory (`stream=False`); both give the same
+values.
 """
 
 import numbers
@@ -25,11 +28,14 @@ from ..simulation import (
     AbstractClosedLoop,
     AbstractFixedStepSolver,
     AbstractSampling,
+    AbstractStream,
     Continuous,
     Performance,
     Simulation,
+    Status,
     Trajectory,
     integrate,
+    integrate_streaming,
     samples_at_once,
 )
 from ..simulation._simulate import any_traced, check_closed_loop
@@ -81,6 +87,35 @@ def evaluate_metrics(metrics: Metrics, traj: Trajectory) -> dict[str, Array]:
     return out
 
 
+class MetricStream(AbstractStream):
+    """Metric objects reduced on the fly (their streaming protocol; see
+    [`jaxatt.metrics.AbstractMetric`][]): the default of [`monte_carlo`][]."""
+
+    metrics: dict
+
+    def init(self, t, signals, t_last):
+        return {name: m.stream_init(t, signals, t_last) for name, m in self.metrics.items()}
+
+    def update(self, state, t, signals):
+        return {name: m.stream_update(state[name], t, signals) for name, m in self.metrics.items()}
+
+    def values(self, state, ok: Array) -> dict[str, Array]:
+        """Per-sample values; a failed sample gets each metric's `failure_value`."""
+        out = {}
+        for name, metric in self.metrics.items():
+            value = jnp.asarray(metric.stream_value(state[name]))
+            out[name] = jnp.where(ok, value, jnp.asarray(metric.failure_value, value.dtype))
+        return out
+
+
+def streamable(metrics: Metrics) -> bool:
+    """Whether every metric of `metrics` can be reduced on the fly (a dict of metric objects
+    that all implement the streaming protocol; a metric function cannot)."""
+    return isinstance(metrics, Mapping) and all(
+        getattr(metric, "streams", False) for metric in metrics.values()
+    )
+
+
 def _check_metrics(where: str, metrics) -> Metrics:
     if isinstance(metrics, Mapping):
         for name, metric in metrics.items():
@@ -108,6 +143,7 @@ def run_batch(
     keep_trajectories: bool = False,
     batch_size: int | None = None,
     sharding: NamedSharding | None = None,
+    stream: bool = False,
 ) -> MonteCarloResult:
     """Simulate every sample of a batch and reduce each to its metrics (traceable).
 
@@ -120,11 +156,24 @@ def run_batch(
     - `batch_size=None`: one `vmap` over the batch; else `lax.map` chunks of `batch_size`.
     - `sharding`: split the batch axis over the devices of a 1-D mesh (the batch must be a
       multiple of the device count); each device runs its samples without communication.
+    - `stream`: reduce the metrics on the fly at every save time instead of from a saved
+      trajectory (same values; see [`MetricStream`][]); requires `streamable(metrics)` and
+      `keep_trajectories=False`.
     """
+    if stream and (keep_trajectories or not streamable(metrics)):
+        raise ValueError(
+            "run_batch: `stream=True` needs metric objects that all stream and "
+            "keep_trajectories=False."
+        )
 
     def one(x):
         x0, loop_batch = x
         loop = closed_loop if loop_batch is None else eqx.combine(loop_batch, closed_loop)
+        if stream:
+            metric_stream = MetricStream(dict(metrics))
+            run = integrate_streaming(loop, x0, sim, metric_stream)
+            values = metric_stream.values(run.state, run.status == int(Status.successful))
+            return values, run.status, run.failure_time, None
         traj = integrate(loop, x0, sim)
         values = evaluate_metrics(metrics, traj)
         return values, traj.status, traj.failure_time, traj if keep_trajectories else None
@@ -362,12 +411,19 @@ def monte_carlo(
     - `closed_loop`: any [`jaxatt.AbstractClosedLoop`][], possibly with batched fields.
     - `x0s`: the initial plant states with a leading batch axis `n`.
     - `t0`, `t1`, `dt`, `sampling`, `solver`, `save_every`: as [`jaxatt.simulate`][].
-      `save_every` sets the resolution of the metrics that read saved samples.
+      `save_every` sets the resolution of the metrics (the samples they read) and of the
+      kept trajectories.
     - `metrics`: a dict name -> metric object ([`jaxatt.metrics.SettlingTime`][],
       [`jaxatt.metrics.Peak`][], ...), or a function `traj -> dict`; `None` gives
       [`default_metrics`][]. Metric values may be scalars or one value per component.
     - `loop_axes`: the `in_axes` from [`batch_field`][] marking batched loop fields.
-    - `keep_trajectories`: also return the batched [`jaxatt.Trajectory`][].
+    - `keep_trajectories`: also return the batched [`jaxatt.Trajectory`][]. By default
+      (`False`) nothing is stored: metric objects are reduced **on the fly** at every save
+      time ([`MetricStream`][], the metrics' streaming protocol), so the default call
+      (`save_every=1`, metrics at every step) costs about what the sparsest save costs, with
+      the same values as reducing the saved trajectory (to round-off: the order of a sum). A
+      metric function, or a metric object without a streaming form, is reduced from the
+      saved trajectory instead.
     - `batch_size`: `lax.map` chunk size (memory); `shard`: see above.
     - `performance`: a [`jaxatt.simulation.Performance`][]; by default the loop is
       scalarized on CPU for 1000 or more samples run at once per device.
@@ -420,6 +476,7 @@ def monte_carlo(
         keep_trajectories=bool(keep_trajectories),
         batch_size=batch_size,
         sharding=sharding,
+        stream=not keep_trajectories and streamable(metrics),
     )
     if padded != n:
         out = jtu.tree_map(lambda x: x[:n], out)

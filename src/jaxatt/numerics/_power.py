@@ -10,10 +10,16 @@ def _slope_floor(dtype) -> Array:
 
 
 def _abs_pow_primal(ax: Array, a: Array) -> Array:
-    # Double where: the masked input keeps `0 ** a` (and its derivatives) out of the graph.
+    r"""$|x|^a$ for $|x| \ge 0$ as $\exp(a \ln|x|)$, exactly 0 at $x = 0$ ($a > 0$), 1 for $a = 0$.
+
+    `exp(a * log(x))` is 1.6x cheaper than XLA:CPU's `pow` per element (benchmarks/README.md)
+    and equal to it to a few ulps: the relative error is about $(1 + |a \ln x|)\,\varepsilon$.
+    Double where: the masked input keeps `log 0` (and its derivatives) out of the graph.
+    """
     positive = ax > 0
     safe_ax = jnp.where(positive, ax, 1)
-    return jnp.where(positive, safe_ax**a, jnp.where(a == 0, 1, 0).astype(ax.dtype))
+    power = jnp.exp(a * jnp.log(safe_ax))
+    return jnp.where(positive, power, jnp.where(a == 0, 1, 0).astype(ax.dtype))
 
 
 def _log_abs(ax: Array) -> Array:

@@ -15,7 +15,12 @@ from ._closed_loop import (
     HeldOutputs as HeldOutputs,
 )
 from ._energy_meter import EnergyMeter as EnergyMeter, EnergyMeterState as EnergyMeterState
-from ._loop import integrate as integrate
+from ._loop import (
+    AbstractStream as AbstractStream,
+    Streamed as Streamed,
+    integrate as integrate,
+    integrate_streaming as integrate_streaming,
+)
 from ._performance import (
     SCALARIZE_FROM as SCALARIZE_FROM,
     Performance as Performance,

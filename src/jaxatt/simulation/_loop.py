@@ -13,6 +13,7 @@ One step from $t_i$ to $t_{i+1} = t_i + dt$:
 Signals are recorded at the save times from the state after these updates.
 """
 
+import abc
 import math
 
 import equinox as eqx
@@ -64,11 +65,55 @@ def _nested_scan(body, carry, n: int):
     return carry, jtu.tree_map(lambda x: x.reshape(n, *x.shape[2:]), out)
 
 
+class Streamed(eqx.Module):
+    """What [`integrate_streaming`][] returns: the stream's final state, and the run's status,
+    failure time and events as in a [`Trajectory`][] (nothing else is stored)."""
+
+    state: PyTree
+    status: Array
+    failure_time: Array
+    events: dict
+
+
+class AbstractStream(eqx.Module):
+    """Something that reduces a run's signals on the fly, one save time at a time (e.g. the
+    metrics of a Monte Carlo study): `init` on the first saved sample, `update` on each
+    following one, in time order. Its arrays are arguments of the compiled program."""
+
+    @abc.abstractmethod
+    def init(self, t: Array, signals: dict[str, Array], t_last: Array) -> PyTree:
+        """The state after the first sample (time `t`); `t_last` is the last save time."""
+
+    @abc.abstractmethod
+    def update(self, state: PyTree, t: Array, signals: dict[str, Array]) -> PyTree:
+        """The state after one more sample at time `t`."""
+
+
 def integrate(closed_loop: AbstractClosedLoop, x0: PyTree[Array], sim: Simulation) -> Trajectory:
     """Run the time loop of `sim` from the plant state `x0` (traceable; no host checks).
 
     `sim.performance.scalarize` must already be decided (`Performance.resolve`).
     """
+    return _run(closed_loop, x0, sim, None)
+
+
+def integrate_streaming(
+    closed_loop: AbstractClosedLoop, x0: PyTree[Array], sim: Simulation, stream: AbstractStream
+) -> Streamed:
+    r"""Run the time loop of `sim` and hand the signals of every save time to `stream`,
+    storing nothing (traceable; no host checks).
+
+    The samples `stream` sees are exactly the saved signals of [`integrate`][] (same times, same
+    right-continuous outputs under a zero-order hold), so a stream's result equals the same
+    reduction of the saved trajectory. The signals of save time $t_i$ are computed at the start
+    of step $i$, inside the (possibly scalarized) step, from the state that step starts from,
+    so that XLA's common-subexpression pass can share them with the step's first stage
+    $f(t_i, y_i)$ (the final sample is taken after the loop).
+    """
+    return _run(closed_loop, x0, sim, stream)
+
+
+def _run(closed_loop, x0, sim, stream):
     dtype = jnp.result_type(*jtu.tree_leaves(x0))
     t0, dt, sps, delay = sim.t0, sim.dt, sim.steps_per_sample, sim.sampling.delay
 
@@ -125,6 +170,8 @@ def integrate(closed_loop: AbstractClosedLoop, x0: PyTree[Array], sim: Simulatio
         return y, held, pending, solver_state, status, failure_time, events
 
     carry0 = (y0, held0, pending0, solver_state0, status0, failure0, events0)
+    if stream is not None:
+        return _run_streaming(closed_loop, sim, stream, one_step, sample, time, carry0)
     if sim.performance.scalarize:
         # The time loop runs on scalar entries (a struct of arrays under vmap): `._scalarize`.
         flat0, step, unflatten = scalarized_loop_step(
@@ -183,3 +230,66 @@ def integrate(closed_loop: AbstractClosedLoop, x0: PyTree[Array], sim: Simulatio
 integrate_jit = eqx.filter_jit(host_checked_program(integrate))
 """[`integrate`][] compiled with `eqx.filter_jit` (what `simulate` calls), its inputs checked on
 the host by `simulate`: no host callback in the program (`jaxatt._validation.host_checked`)."""
+
+
+def _run_streaming(closed_loop, sim, stream, one_step, sample, time, carry0) -> Streamed:
+    """[`integrate_streaming`][]'s loop: the stream's state rides in the step's carry."""
+    y0, held0 = carry0[0], carry0[1]
+    sps, every = sim.steps_per_sample, sim.save_every
+
+    def observed(loop, y, held, pending, t, i):
+        """The signals saved at time t_i (after the sample update due at i, if any)."""
+        if sps:
+            y, held, _ = lax.cond(
+                (i % sps == 0) & (i > 0),
+                lambda: sample(loop, t, y, held, pending),
+                lambda: (y, held, pending),
+            )
+        return loop.signals(t, y, held)
+
+    def streaming_step(module, carry, i):
+        loop, strm = module
+        inner, state = carry
+        y, held, pending = inner[:3]
+        t = time(i)
+
+        def observe(state):
+            return strm.update(state, t, observed(loop, y, held, pending, t, i))
+
+        if every == 1:
+            # Every step saves: update unconditionally, keep the initial state at i = 0.
+            new = observe(state)
+            state = jtu.tree_map(lambda a, b: jnp.where(i > 0, a, b), new, state)
+        else:
+            state = lax.cond((i % every == 0) & (i > 0), observe, lambda s: s, state)
+        return one_step(loop, inner, i), state
+
+    t_last = time(sim.n_steps)
+    state0 = stream.init(time(0), closed_loop.signals(time(0), y0, held0), t_last)
+    module = (closed_loop, stream)
+    if sim.performance.scalarize:
+        flat0, step, unflatten = scalarized_loop_step(
+            streaming_step, module, (carry0, state0), sim.performance.limits
+        )
+    else:
+        flat0 = (carry0, state0)
+
+        def step(carry, i):
+            return streaming_step(module, carry, i), None
+
+        def unflatten(carry):
+            return carry
+
+    def interval(flat, j):
+        flat, _ = lax.scan(step, flat, j * every + jnp.arange(every))
+        return flat, None
+
+    if sim.checkpoint:
+        interval = jax.checkpoint(interval)
+
+    flat, _ = lax.scan(interval, flat0, jnp.arange(sim.n_steps // every))
+    inner, state = unflatten(flat)
+    y, held, pending, _, status, failure_time, events = inner
+    signals = observed(closed_loop, y, held, pending, t_last, sim.n_steps)
+    state = stream.update(state, t_last, signals)
+    return Streamed(state, status, failure_time, events)
