@@ -43,16 +43,18 @@ def public_modules() -> list[types.ModuleType]:
 
 def public_names(module: types.ModuleType) -> dict[str, object]:
     """A module's public names: every attribute not starting with an underscore, except
-    modules from outside it (e.g. `importlib`). `jaxatt` declares its exports with
-    `from ._x import Name as Name` (no `__all__`), so this is what a user can import."""
+    modules from outside it (e.g. `importlib`) and plain (non-package) submodules. `jaxatt`
+    declares its exports with `from ._x import Name as Name` (no `__all__`), so this is what
+    a user can import."""
     names = {}
     for name, value in vars(module).items():
         if name.startswith("_"):
             continue
-        if isinstance(value, types.ModuleType) and not value.__name__.startswith(
-            module.__name__ + "."
+        if isinstance(value, types.ModuleType) and not (
+            value.__name__.startswith(module.__name__ + ".") and hasattr(value, "__path__")
         ):
-            continue
+            continue  # outside modules, and plain submodules such as `jaxatt.cli` (an entry
+            # point, documented as commands; it is an attribute only once something imports it)
         names[name] = value
     return names
 

@@ -41,6 +41,7 @@ from jaxatt.scenarios import (
     duan2024 as duan,
     flyaround,
     shi2024,
+    wu2018,
     yu2022_ftac_mrp as yu,
     yue2018,
     zhang2017,
@@ -107,6 +108,66 @@ def _six_dof_states():
         jr.uniform(keys[0], (3, 3), minval=-20, maxval=20), 0.1 * jr.normal(keys[1], (3, 3)),
         q.q, q.omega,
     )
+
+
+def _euler_states():
+    from jaxatt.plants import EulerAngleState
+
+    keys = jr.split(jr.key(8))
+    return EulerAngleState(
+        jr.uniform(keys[0], (3, 3), minval=-0.5, maxval=0.5), 0.05 * jr.normal(keys[1], (3, 3))
+    )
+
+
+def _safe_approach_starts():
+    starts = jnp.array([[48.5, -1.4, 0.2], [40.0, 0.5, -0.3], [30.0, 0.0, 0.6]])
+    return jax.tree.map(lambda *x: jnp.stack(x), *[wu2018.initial_state(p) for p in starts])
+
+
+def _attitude_law_cases():
+    from jaxatt.controllers import (
+        AdaptiveTanhMRP,
+        AdaptiveTanhQuaternion,
+        DecoupledSlidingMode,
+        FeedbackLinearization,
+    )
+    from jaxatt.plants import Constant, RigidBodyEuler
+    from jaxatt.reaching import Exponential, Tanh
+    from jaxatt.references import EulerAngleTrajectory
+    from jaxatt.sliding import ExponentialDecay, GlobalSurface, TerminalSurface
+
+    inertia = jnp.diag(jnp.array([10.0, 12.0, 14.0]))
+    surface = GlobalSurface(TerminalSurface(1.0, 0.5, 0.6), ExponentialDecay(1.0))
+    return {
+        "Euler angles + decoupling + global terminal SMC (SPEC 001(b))": (
+            lambda: ClosedLoop(
+                RigidBodyEuler(inertia),
+                FeedbackLinearization(
+                    inertia, DecoupledSlidingMode(surface, Exponential(2.0, 0.05, Tanh(0.01)))
+                ),
+                EulerAngleTrajectory(Constant(jnp.array([0.1, -0.2, 0.3]))),
+            ),
+            _euler_states,
+            "controller.outer.surface.decay.time_constant",
+        ),
+        "adaptive tanh sliding mode, quaternion (SPEC 001(f))": (
+            lambda: ClosedLoop(
+                RigidBodyQuaternion(J0), AdaptiveTanhQuaternion(J0, 1.0, 10.0, 20.0, 0.01)
+            ),
+            _quaternions,
+            "controller.gain",
+        ),
+        "adaptive tanh sliding mode, MRP (SPEC 001(f))": (
+            lambda: ClosedLoop(RigidBodyMRP(J0), AdaptiveTanhMRP(J0, 1.0, 10.0, 20.0, 0.01)),
+            _mrps,
+            "controller.slope",
+        ),
+        "safe approach, J2 plant (Wu 2018, reconstructed)": (
+            lambda: wu2018.build(),
+            _safe_approach_starts,
+            "controller.k_h",
+        ),
+    }
 
 
 def _relative_orbit_cases():
@@ -230,6 +291,7 @@ CASES = {
         "controller.alpha",
     ),
     **_relative_orbit_cases(),
+    **_attitude_law_cases(),
 }
 
 
