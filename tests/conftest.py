@@ -1,18 +1,10 @@
 """Test configuration: float64 first (before any array exists), strict promotion, a key fixture.
 
 The suite compiles exactly what users run: no compiler flag is set here (CI sets none either;
-see .ci/run). One thing is shared between the test processes: JAX's persistent compilation
-cache, in a fresh temporary folder per session (created by the controlling process, inherited
-by the xdist workers and the notebook kernels, removed at the end). A notebook and the test of
-the same scenario compile the same programs (both run its `reproduce(short=True)`); with the
-cache the second one loads them instead of compiling them again (measured: notebook 09 takes
-19 s after `tests/scenarios/test_wu2018.py` instead of 38 s). The compiled code is the same.
-Set `JAX_COMPILATION_CACHE_DIR` yourself to choose the folder, or to `""` for no cache.
+see .ci/run).
 """
 
 import os
-import shutil
-import tempfile
 
 
 os.environ.setdefault("MPLBACKEND", "Agg")
@@ -20,9 +12,6 @@ os.environ.setdefault("JAXATT_SHORT", "1")
 # The CLI turns the persistent compilation cache on by default; tests neither read nor write
 # the user's cache (tests/simulation/test_compile_cache.py uses its own folders).
 os.environ.setdefault("JAXATT_CACHE_DIR", "off")
-if "JAX_COMPILATION_CACHE_DIR" not in os.environ:  # the controlling process (workers inherit)
-    os.environ["JAX_COMPILATION_CACHE_DIR"] = tempfile.mkdtemp(prefix="jaxatt-test-xla-")
-    os.environ["JAXATT_TEST_OWNS_XLA_CACHE"] = os.environ["JAX_COMPILATION_CACHE_DIR"]
 
 import jax  # noqa: E402
 
@@ -34,12 +23,6 @@ import jax.random as jr  # noqa: E402
 import pytest  # noqa: E402
 
 
-def pytest_unconfigure(config):
-    owned = os.environ.get("JAXATT_TEST_OWNS_XLA_CACHE")
-    if owned and not hasattr(config, "workerinput"):  # the controlling process cleans up
-        shutil.rmtree(owned, ignore_errors=True)
-
-
 @pytest.fixture
 def key():
     return jr.key(0)
@@ -48,12 +31,20 @@ def key():
 # Scheduling for `pytest -n 2`. Nearly all of the suite's time is XLA compilation, and a
 # worker compiles a program once, so the work is handed out by test module: tests of one
 # module (sharing fixtures, closed loops and horizons) run on one worker and compile their
-# programs once. Modules whose tests share nothing (each notebook runs in its own kernel) are
+# programs once. Modules whose tests share nothing (each notebook runs in its own kernel; each
+# registry case builds and compiles its own closed loop) are
 # handed out test by test. The longest units go first: started last, one would leave the other
 # worker idle. (pytest-xdist's `--dist loadgroup` cannot be used: with pytest 9.2 its
 # `xdist_group` markers are silently ignored, because node ids can no longer be rewritten.)
-SPREAD_MODULES = ("tests/test_notebooks.py",)
-FIRST_MODULES = ("tests/test_notebooks.py", "tests/test_cli.py")  # longest first
+SPREAD_MODULES = ("tests/test_notebooks.py", "tests/test_registry.py")
+FIRST_MODULES = (  # longest first
+    "tests/test_notebooks.py",
+    "tests/test_registry.py",
+    "tests/test_cli.py",
+    "tests/scenarios/test_zhang2021_gradients.py",
+    "tests/scenarios/test_wu2018.py",
+    "tests/test_docs.py",
+)
 # Modules that compile the same programs as another module join its unit: the Chen tests
 # simulate the short reproduction that `jaxatt demo --short` runs (2 programs, 10 s).
 JOIN_UNIT_OF = {"tests/scenarios/test_chen2022.py": "tests/test_cli.py"}
