@@ -110,8 +110,8 @@ GAINS = dict(k1=0.5, k2=0.5, k3=0.9, gamma=0.6, k_s=3.0, k_eta=1.6, k_h=40.0, P1
 FORCE_LIMIT, TORQUE_LIMIT = 20.0, 1.0
 VELOCITY_LIMIT, INFLUENCE, LENGTH = 0.5, 2.0, 10.0
 HOLD_POINT, HOLD_RELEASE = (60.0, 0.0, 0.0), 130.0
-HORIZON, SHORT_HORIZON, DT, SAVE_EVERY = 300.0, 300.0, 0.02, 10
-DIRECT_DT, DIRECT_HORIZON, SHORT_DIRECT_HORIZON = 0.005, 150.0, 60.0
+HORIZON, DT, SAVE_PERIOD = 300.0, 0.02, 0.2  # s
+DIRECT_DT, DIRECT_HORIZON = 0.005, 150.0
 ATTITUDE_TOLERANCE = 1e-3
 MC_SAMPLES, SHORT_MC_SAMPLES, MC_SEED = 64, 8, 2018
 
@@ -241,7 +241,7 @@ def simulate_batch(
     loops = [build(bool(a), bool(h)) for a, h in zip(avoids, holds)]
     for k, p in enumerate(starts):
         loops[k].controller.check_initial(0.0, initial_state(p), loops[k].reference(0.0, None)[0])
-    sim = Simulation(0.0, horizon, dt, save_every=max(1, round(0.2 / dt)))
+    sim = Simulation(0.0, horizon, dt, save_every=max(1, round(SAVE_PERIOD / dt)))
     return _integrate_batch(_stack(loops), _stack([initial_state(p) for p in starts]), sim)
 
 
@@ -278,7 +278,8 @@ def metrics(traj: Trajectory) -> dict:
     return trajectory_metrics(traj)
 
 
-def _take(traj: Trajectory, k: int) -> Trajectory:
+def _take(traj: Trajectory, k) -> Trajectory:
+    """Sample `k` (an index or a slice) of a batched trajectory."""
     return jax.tree_util.tree_map(lambda x: x[k], traj)
 
 
@@ -357,8 +358,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
     if progress:
         print(f"[wu2018] Cases 1 and 2 with and without avoidance, {2 * n} Monte Carlo starts")
     batch = simulate_batch(starts, avoidance=avoids, hold_point=holds)
-    on = jax.tree_util.tree_map(lambda x: x[:-2], batch)
-    off = jax.tree_util.tree_map(lambda x: x[-2:], batch)
+    on, off = _take(batch, slice(None, -2)), _take(batch, slice(-2, None))
     direct = None
     if not short:
         if progress:
@@ -397,11 +397,10 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
         metrics["case2_direct"]["final_position"] = rho.tolist()
     else:
         metrics["case2_direct"] = None
-    batch = jax.tree_util.tree_map(lambda x: x[2:], on)
     metrics["monte_carlo"] = {
         "seed": MC_SEED,
-        "corridor": monte_carlo_summary(jax.tree_util.tree_map(lambda x: x[:n], batch), corridor),
-        "outside": monte_carlo_summary(jax.tree_util.tree_map(lambda x: x[n:], batch), outside),
+        "corridor": monte_carlo_summary(_take(on, slice(2, 2 + n)), corridor),
+        "outside": monte_carlo_summary(_take(on, slice(2 + n, None)), outside),
     }
     _write_figures(out, on, off, direct, n)
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
