@@ -28,6 +28,30 @@ def key():
     return jr.key(0)
 
 
+_CACHE_OPTIONS = (
+    "jax_enable_compilation_cache",
+    "jax_compilation_cache_dir",
+    "jax_persistent_cache_min_compile_time_secs",
+    "jax_persistent_cache_min_entry_size_bytes",
+)
+
+
+@pytest.fixture(autouse=True)
+def _compilation_cache_stays_off():
+    """A test that turns JAX's persistent compilation cache on (a docs block calling
+    `jaxatt.enable_compilation_cache()`, the CLI's cache tests) turns it off again before the
+    next test: a worker left reading and writing a cache folder for the rest of the suite
+    crashed in XLA's executable deserialization (CI, stop 22)."""
+    saved = {name: getattr(jax.config, name) for name in _CACHE_OPTIONS}
+    yield
+    if any(getattr(jax.config, name) != value for name, value in saved.items()):
+        for name, value in saved.items():
+            jax.config.update(name, value)
+        from jax.experimental.compilation_cache import compilation_cache
+
+        compilation_cache.reset_cache()
+
+
 # Scheduling for `pytest -n 2`. Nearly all of the suite's time is XLA compilation, and a
 # worker compiles a program once, so the work is handed out by test module: tests of one
 # module (sharing fixtures, closed loops and horizons) run on one worker and compile their

@@ -170,6 +170,9 @@ PAGES_WITH_CODE = [
 @pytest.mark.parametrize("page", PAGES_WITH_CODE, ids=lambda p: str(p.relative_to(ROOT)))
 def test_code_blocks_run(page, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # blocks may write checkpoints or figures
+    # A block that turns the compilation cache on writes into this test's folder, not the
+    # user's ~/.cache (conftest turns the cache off again after the test).
+    monkeypatch.setenv("JAXATT_CACHE_DIR", str(tmp_path / "xla"))
     namespace: dict = {"__name__": "__docs__"}
     for k, code in enumerate(python_blocks(page)):
         exec(compile(code, f"{page.relative_to(ROOT)}[python block {k}]", "exec"), namespace)
