@@ -1,7 +1,8 @@
 """Test configuration: float64 first (before any array exists), strict promotion, a key fixture.
 
-The suite compiles exactly what users run: no compiler flag is set here (CI sets none either;
-see .ci/run).
+The suite compiles exactly what users run: no compiler flag is set here. `.ci/run` sets one in
+the open (`XLA_FLAGS=--xla_cpu_use_fusion_emitters=false`, XLA:CPU's faster-compiling code
+generator; docs/testing.md), and `tests/test_xla_codegen.py` checks that both generators agree.
 """
 
 import os
