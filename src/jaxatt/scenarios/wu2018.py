@@ -77,6 +77,7 @@ import jax.random as jr
 import numpy as np
 
 from ..controllers import SafeApproachSlidingMode
+from ..metrics import settling_time
 from ..orbits import MU_EARTH
 from ..plants import (
     Proximity,
@@ -252,10 +253,7 @@ def trajectory_metrics(traj: Trajectory) -> dict:
     h = np.asarray(traj.signals["h"])
     u = np.asarray(traj.signals["u"])
     e_sigma = np.linalg.norm(np.asarray(traj.signals["sigma_error"]), axis=-1)
-    outside = np.nonzero(e_sigma >= ATTITUDE_TOLERANCE)[0]
-    settle = float(ts[0]) if outside.size == 0 else float(ts[min(outside[-1] + 1, len(ts) - 1)])
-    if outside.size and outside[-1] == len(ts) - 1:
-        settle = math.inf
+    settle = float(settling_time(ts, e_sigma, ATTITUDE_TOLERANCE))
     failed = int(traj.status) != Status.successful
     d_hat = np.asarray(traj.signals["d_hat_translation"])
     return {
