@@ -152,27 +152,8 @@ def test_cached_programs_give_the_same_results_and_still_report_failures(two_run
     assert first["failure"][0] == "nonfinite_state" and first["failure"][1] == pytest.approx(1e-2)
 
 
-@pytest.fixture
-def restore_cache_config():
-    saved = {
-        name: getattr(jax.config, name)
-        for name in (
-            "jax_enable_compilation_cache",
-            "jax_compilation_cache_dir",
-            "jax_persistent_cache_min_compile_time_secs",
-            "jax_persistent_cache_min_entry_size_bytes",
-        )
-    }
-    yield
-    for name, value in saved.items():
-        jax.config.update(name, value)
-    jaxatt.disable_compilation_cache()
-    jax.config.update("jax_enable_compilation_cache", saved["jax_enable_compilation_cache"])
-
-
-def test_cli_turns_the_cache_on_where_asked_and_off_on_request(
-    tmp_path, monkeypatch, restore_cache_config
-):
+def test_cli_turns_the_cache_on_where_asked_and_off_on_request(tmp_path, monkeypatch):
+    # tests/conftest.py restores JAX's cache options after this test.
     def setup(argv):
         jax.config.update("jax_compilation_cache_dir", None)
         cli._setup_cache(cli.build_parser().parse_args(argv))
