@@ -25,6 +25,7 @@ from jaxtyping import Array, PyTree
 
 from .._validation import host_checked_program
 from ._closed_loop import AbstractClosedLoop, HeldOutputs
+from ._pairing import Paired, pair, plan_pairs, signal_dependencies, unpair
 from ._scalarize import scalarized_loop_step
 from ._settings import Simulation
 from ._trajectory import EVENT_CAPACITY, EventRecord, Trajectory
@@ -265,7 +266,16 @@ def _run_streaming(closed_loop, sim, stream, one_step, sample, time, carry0) -> 
         return one_step(loop, inner, i), state
 
     t_last = time(sim.n_steps)
-    state0 = stream.init(time(0), closed_loop.signals(time(0), y0, held0), t_last)
+    signals0 = closed_loop.signals(time(0), y0, held0)
+    state0 = stream.init(time(0), signals0, t_last)
+    pairs = ()
+    if sim.performance.scalarize:
+        # Carry the stream's fresh values two per complex number: one XLA:CPU kernel each
+        # (`._pairing`; same values).
+        reads = signal_dependencies(lambda s, x: stream.update(s, time(0), x), state0, signals0)
+        pairs = plan_pairs(jtu.tree_leaves(state0), reads)
+        stream = _PairedStream(stream, pairs)
+        state0 = pair(state0, pairs)
     module = (closed_loop, stream)
     if sim.performance.scalarize:
         flat0, step, unflatten = scalarized_loop_step(
@@ -292,4 +302,19 @@ def _run_streaming(closed_loop, sim, stream, one_step, sample, time, carry0) -> 
     y, held, pending, _, status, failure_time, events = inner
     signals = observed(closed_loop, y, held, pending, t_last, sim.n_steps)
     state = stream.update(state, t_last, signals)
+    if isinstance(state, Paired):
+        state = unpair(state)
     return Streamed(state, status, failure_time, events)
+
+
+class _PairedStream(AbstractStream):
+    """`stream` with its state held as [`jaxatt.simulation._pairing.Paired`][]."""
+
+    stream: AbstractStream
+    pairs: tuple[tuple[int, int], ...] = eqx.field(static=True)
+
+    def init(self, t, signals, t_last):
+        return pair(self.stream.init(t, signals, t_last), self.pairs)
+
+    def update(self, state, t, signals):
+        return pair(self.stream.update(unpair(state), t, signals), self.pairs)
