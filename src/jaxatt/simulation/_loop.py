@@ -308,7 +308,7 @@ def _run_streaming(closed_loop, sim, stream, one_step, sample, time, carry0) -> 
 
 
 class _PairedStream(AbstractStream):
-    """`stream` with its state held as [`jaxatt.simulation._pairing.Paired`][]."""
+    """`stream` with its state held as a `._pairing.Paired` (complex pairs; same values)."""
 
     stream: AbstractStream
     pairs: tuple[tuple[int, int], ...] = eqx.field(static=True)

@@ -7,14 +7,17 @@ $|u_i|$ and $\|u\|^2$ for the peak and the effort, the attitude-error norm and t
 time, the rate-error norm): each became a kernel that recomputed the controller and the
 attitude error it reads. Carrying two of those values as the real and imaginary parts of one
 complex number makes them one output, computed in one kernel: the default 4-metric
-`monte_carlo` ran 0.81x -> 0.90x the hand-written scan at batch 1000 on a 2-core CPU
-(`benchmarks/README.md`, issue 18).
+`monte_carlo` went from 0.79x to 0.90x the hand-written scan at batch 1000, and from 0.97x to
+1.05x at 3000, on a 2-core CPU (`benchmarks/README.md`, issue 18).
 
-[`signal_dependencies`][] finds the values worth pairing (the leaves of the stream's state
-that depend on the step's signals, by a dependency pass over the update's jaxpr), [`plan_pairs`][]
-pairs them (values reading the same signals first), [`pair`][] and
-[`unpair`][] pack and unpack them. Packing is exact: `real(complex(a, b))` is `a` bit for bit
-(NaN and infinities included), so the stream's values do not change.
+`signal_dependencies` finds the values worth pairing (the leaves of the stream's state
+that depend on the step's signals, by a dependency pass over the update's jaxpr), `plan_pairs`
+pairs them (values reading the same signals first), `pair` and
+`unpair` pack and unpack them. Packing is exact: `real(complex(a, b))` is `a` bit for bit
+(NaN and infinities included); only XLA's fusion of the loop changes (its rounding may differ
+in the last bit, as for any change of fusion). Only the scalarized loop pairs: that is where
+it was measured (XLA:CPU); the plain program, run below 1000 samples and on GPUs, is as
+before.
 """
 
 import equinox as eqx
@@ -39,8 +42,10 @@ def signal_dependencies(fn, state: PyTree, signals: PyTree) -> list[frozenset[in
         )
         if found:
             depends.update((v, found) for v in eqn.outvars)
-    return [depends.get(v, frozenset()) if isinstance(v, jex.Var) else frozenset()
-            for v in jaxpr.outvars]
+    return [
+        depends.get(v, frozenset()) if isinstance(v, jex.Var) else frozenset()
+        for v in jaxpr.outvars
+    ]
 
 
 def _pairable(leaf) -> bool:
@@ -97,7 +102,7 @@ def pair(tree: PyTree, pairs: tuple[tuple[int, int], ...]) -> Paired:
 
 
 def unpair(paired: Paired) -> PyTree:
-    """The pytree [`pair`][] packed, exactly."""
+    """The pytree `pair` packed, exactly."""
     leaves: list = [None] * paired.treedef.num_leaves
     for (a, b), z in zip(paired.pairs, paired.packed):
         leaves[a], leaves[b] = jnp.real(z), jnp.imag(z)
