@@ -408,8 +408,7 @@ def main(args) -> int:
                 }
             )
             calls = [
-                lambda m=m: _loss_and_grad(u0, m, parameters, objective, inputs)
-                for m in variants
+                lambda m=m: _loss_and_grad(u0, m, parameters, objective, inputs) for m in variants
             ]
             calls.insert(0, lambda: _loss_and_grad(*step_args))
             entry = "_loss_and_grad(u0, template_k, ...) directly, after tune"

@@ -34,8 +34,12 @@ def test_demo_runs_the_whole_workflow_and_reports_measured_numbers(tmp_path, cap
     after = tuned["held_out_after"]["mean_settling_time"]
     assert f"{before:.3g}" in report and f"{after:.3g}" in report
     assert tuned["gains_after"] != tuned["gains_before"]
-    for name in ("montecarlo_cdf.png", "chen2022/fig5_sliding_variable_D1.png",
-                 "tuning/loss.png", "tuning/settling_cdf.png"):
+    for name in (
+        "montecarlo_cdf.png",
+        "chen2022/fig5_sliding_variable_D1.png",
+        "tuning/loss.png",
+        "tuning/settling_cdf.png",
+    ):
         assert (tmp_path / name).stat().st_size > 1000, name
     tuning_report = (tmp_path / "tuning" / "report.md").read_text()
     assert "| rho |" in tuning_report and "reduced by" in tuning_report
@@ -54,8 +58,18 @@ def test_scenario_rigid_body_pd_reproduces(tmp_path, capsys):
 
 def test_tune_command_writes_a_report_and_resumes(tmp_path, capsys):
     # The demo's --short sizes (4 training, 16 held-out samples): the same compiled programs.
-    args = ["tune", "chen2022", "--samples", "4", "--steps", "2", "--validation-samples", "16",
-            "--out", str(tmp_path)]
+    args = [
+        "tune",
+        "chen2022",
+        "--samples",
+        "4",
+        "--steps",
+        "2",
+        "--validation-samples",
+        "16",
+        "--out",
+        str(tmp_path),
+    ]
     assert cli.main(args) == 0
     first = json.loads((tmp_path / "tuning.json").read_text())
     assert len(first["losses"]) == 2 and (tmp_path / "checkpoint.eqx").exists()

@@ -105,8 +105,10 @@ def _six_dof_states():
     q = _quaternions()
     keys = jr.split(jr.key(6))
     return SixDofState(
-        jr.uniform(keys[0], (3, 3), minval=-20, maxval=20), 0.1 * jr.normal(keys[1], (3, 3)),
-        q.q, q.omega,
+        jr.uniform(keys[0], (3, 3), minval=-20, maxval=20),
+        0.1 * jr.normal(keys[1], (3, 3)),
+        q.q,
+        q.omega,
     )
 
 
@@ -264,8 +266,8 @@ CASES = {
     ),
     "stand-in: Laplacian consensus": (
         lambda: ClosedLoop(
-            standins.Agents(3), standins.ConsensusPD(np.diag([1.0, 2, 1]) - np.eye(3, k=1)
-                                                     - np.eye(3, k=-1), 1.5, 2.0)
+            standins.Agents(3),
+            standins.ConsensusPD(np.diag([1.0, 2, 1]) - np.eye(3, k=1) - np.eye(3, k=-1), 1.5, 2.0),
         ),
         lambda: _translations((3,)),
         "controller.kp",
@@ -284,9 +286,7 @@ CASES = {
         "plant.frequencies",
     ),
     "stand-in: fractional PD memory": (
-        lambda: ClosedLoop(
-            standins.PointMass(1.0), standins.FractionalPD(4.0, 2.0, 0.7, DT, 5)
-        ),
+        lambda: ClosedLoop(standins.PointMass(1.0), standins.FractionalPD(4.0, 2.0, 0.7, DT, 5)),
         _translations,
         "controller.alpha",
     ),
@@ -321,14 +321,20 @@ def test_generic_contract(name):
 
     # vmap = loop (monte_carlo's batch runner against simulate, sample by sample).
     batch = mc.monte_carlo(
-        loop, x0s, 0.0, T1, metrics={"peak": jaxatt.metrics.Peak("u")}, keep_trajectories=True,
+        loop,
+        x0s,
+        0.0,
+        T1,
+        metrics={"peak": jaxatt.metrics.Peak("u")},
+        keep_trajectories=True,
         **common,
     )
     assert bool(np.all(batch.successful)), batch.status
     singles = [jaxatt.simulate(loop, _index(x0s, k), 0.0, T1, **common) for k in range(3)]
     for k, single in enumerate(singles):
-        for a, b in zip(jax.tree.leaves(_index(batch.trajectories.states, k)),
-                        jax.tree.leaves(single.states)):
+        for a, b in zip(
+            jax.tree.leaves(_index(batch.trajectories.states, k)), jax.tree.leaves(single.states)
+        ):
             np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-14)
 
     # One compilation per structure: a new value of a parameter compiles nothing.

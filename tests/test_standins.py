@@ -84,9 +84,7 @@ def test_double_integrator_matches_the_closed_form_and_runs_everywhere():
     exact = np.exp(-t) * (r0 * np.cos(wd * t) + (v0 + r0) / wd * np.sin(wd * t))
     np.testing.assert_allclose(traj.plant_states.r, exact, atol=1e-8)  # RK4 at dt = 0.01
 
-    x0s = TranslationState(
-        jr.uniform(jr.key(0), (3, 3), minval=-1, maxval=1), jnp.zeros((3, 3))
-    )
+    x0s = TranslationState(jr.uniform(jr.key(0), (3, 3), minval=-1, maxval=1), jnp.zeros((3, 3)))
     batch = _vmap_equals_loop(loop, x0s, 4.0, 0.01, None)  # the plant's default metrics
     assert set(batch.metrics) == {"settling_time", "peak_force", "effort"}
 
@@ -149,9 +147,7 @@ def _smc():
 
 
 def _flexible(coupling):
-    return FlexibleBody(
-        J0, jnp.asarray(coupling), jnp.array([1.5, 4.0]), jnp.array([0.02, 0.05])
-    )
+    return FlexibleBody(J0, jnp.asarray(coupling), jnp.array([1.5, 4.0]), jnp.array([0.02, 0.05]))
 
 
 def test_flexible_body_is_flown_by_the_attitude_controller():
@@ -159,11 +155,15 @@ def test_flexible_body_is_flown_by_the_attitude_controller():
     x0 = FlexibleState(q0, jnp.zeros(3), jnp.zeros(2), jnp.zeros(2))
     # Oracle: without coupling the hub is exactly the rigid body.
     rigid = jaxatt.simulate(
-        ClosedLoop(RigidBodyQuaternion(J0), _smc()), QuaternionState(q0, jnp.zeros(3)),
-        0.0, 3.0, dt=5e-3,
+        ClosedLoop(RigidBodyQuaternion(J0), _smc()),
+        QuaternionState(q0, jnp.zeros(3)),
+        0.0,
+        3.0,
+        dt=5e-3,
     )
-    uncoupled = jaxatt.simulate(ClosedLoop(_flexible(jnp.zeros((2, 3))), _smc()), x0, 0.0, 3.0,
-                                dt=5e-3)
+    uncoupled = jaxatt.simulate(
+        ClosedLoop(_flexible(jnp.zeros((2, 3))), _smc()), x0, 0.0, 3.0, dt=5e-3
+    )
     # (Not to rounding: the two-phase law's sign switches near s = 0 turn the rounding
     # difference of a 5x5 LU solve against the rigid body's 3x3 adjugate into differences of
     # order dt |s'|; measured 3.5e-8.)
@@ -173,7 +173,9 @@ def test_flexible_body_is_flown_by_the_attitude_controller():
     x0s = jax.tree.map(lambda a: jnp.stack([a, a]), x0)
     x0s = FlexibleState(
         jnp.stack([q0, quat_from_axis_angle(jnp.array([0.0, 1.0, 0.0]), -0.4)]),
-        x0s.omega, x0s.eta, x0s.eta_dot,
+        x0s.omega,
+        x0s.eta,
+        x0s.eta_dot,
     )
     metrics = {"settling_time": SettlingTime("attitude_error_vector", 1e-3)}
     batch = _vmap_equals_loop(loop, x0s, 3.0, 5e-3, metrics)
@@ -210,9 +212,7 @@ def test_fractional_pd_memory_is_advanced_after_every_completed_step():
     np.testing.assert_allclose(derivative[1:], (r[1:] - r[:-1]) / dt, rtol=1e-12, atol=1e-14)
 
     loop = ClosedLoop(plant, FractionalPD(4.0, 2.0, 0.7, dt, memory))
-    x0s = TranslationState(
-        jnp.array([[1.0, -0.5, 0.25], [0.3, 0.8, -0.6]]), jnp.zeros((2, 3))
-    )
+    x0s = TranslationState(jnp.array([[1.0, -0.5, 0.25], [0.3, 0.8, -0.6]]), jnp.zeros((2, 3)))
     _vmap_equals_loop(loop, x0s, 6.0, dt, {"t": SettlingTime("position_error", 0.05)})
     params = {
         "kd": tune.Parameter("controller.kd", tune.Positive()),

@@ -123,8 +123,12 @@ def test_an_inadmissible_start_through_simulate_raises_before_anything_runs(monk
     with pytest.raises(ValueError) as info:
         simulate(loop, MRPState(PAPER_SIGMA0, PAPER_OMEGA0), 0.0, 1.0, dt=1e-3)
     message = str(info.value)
-    for needle in ("chi(v(0)) = 0.2597", "M^(1+alpha2) = 0.21715", "barrier ratio 1.196",
-                   "allow_inadmissible=True"):
+    for needle in (
+        "chi(v(0)) = 0.2597",
+        "M^(1+alpha2) = 0.21715",
+        "barrier ratio 1.196",
+        "allow_inadmissible=True",
+    ):
         assert needle in message, needle
 
 
@@ -134,9 +138,9 @@ def test_traced_init_never_raises_and_admissibility_is_per_sample():
     x0s = MRPState(jnp.stack([PAPER_SIGMA0] * 2), jnp.stack([PAPER_OMEGA0, 0.5 * PAPER_OMEGA0]))
     states = eqx.filter_vmap(lambda x: law.init(0.0, x, reference))(x0s)
     assert states.time_inside.shape == (2,)
-    admissible = eqx.filter_vmap(
-        lambda x, s: law.admissible(0.0, x, reference, s), in_axes=(0, 0)
-    )(x0s, states)
+    admissible = eqx.filter_vmap(lambda x, s: law.admissible(0.0, x, reference, s), in_axes=(0, 0))(
+        x0s, states
+    )
     np.testing.assert_array_equal(admissible, [False, True])
 
 

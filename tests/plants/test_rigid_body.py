@@ -119,7 +119,8 @@ def test_an_indefinite_time_varying_inertia_fails_the_run():
     # The first completed step at which J(t) has a non-positive leading minor (by NumPy).
     grid = np.arange(1, 801) * 0.01
     bad = [
-        t for t in grid
+        t
+        for t in grid
         if np.linalg.eigvalsh(np.asarray(J_ASYM) + np.diag([30 * np.sin(t), 0, 0]))[0] <= 0
     ]
     assert float(traj.failure_time) == pytest.approx(bad[0])

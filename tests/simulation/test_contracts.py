@@ -74,7 +74,8 @@ def test_first_order_lag_actuator_state_lives_in_the_loop():
 
 def test_lag_then_saturation_in_a_chain():
     loop = ClosedLoop(
-        RigidBodyMRP(J0), MRPPD(600.0, 500.0),
+        RigidBodyMRP(J0),
+        MRPPD(600.0, 500.0),
         actuator=jaxatt.simulation.Chain(FirstOrderLag(0.1), Saturation(30.0)),
     )
     traj = jaxatt.simulate(loop, mrp_x0(), 0.0, 1.0, dt=1e-3)
@@ -126,10 +127,15 @@ def test_a_signal_name_used_twice_is_an_error():
 
 def test_dotted_paths():
     assert parse_path("controller.reaching_law.rho") == (
-        ("attr", "controller"), ("attr", "reaching_law"), ("attr", "rho"),
+        ("attr", "controller"),
+        ("attr", "reaching_law"),
+        ("attr", "rho"),
     )
     assert parse_path("terms[1]['a'].x") == (
-        ("attr", "terms"), ("item", 1), ("item", "a"), ("attr", "x"),
+        ("attr", "terms"),
+        ("item", 1),
+        ("item", "a"),
+        ("attr", "x"),
     )
     loop = ClosedLoop(RigidBodyMRP(J0), MRPPD(1.0, 2.0))
     assert float(get_path(loop, "controller.k2")) == 2.0
@@ -189,8 +195,13 @@ def test_mrp_and_quaternion_states_are_the_plant_measurements():
     loop = ClosedLoop(RigidBodyMRP(J0), MRPPD(1.0, 1.0))
     traj = jaxatt.simulate(loop, mrp_x0(), 0.0, 0.1, dt=0.05, solver=Euler())
     assert set(traj.signals) >= {
-        "u", "u_cmd", "attitude_error", "attitude_error_vector", "attitude_error_angle",
-        "rate_error", "disturbance",
+        "u",
+        "u_cmd",
+        "attitude_error",
+        "attitude_error_vector",
+        "attitude_error_angle",
+        "rate_error",
+        "disturbance",
     }
     angle = np.asarray(traj.signals["attitude_error_angle"])
     sigma = np.linalg.norm(np.asarray(traj.signals["attitude_error_vector"]), axis=1)

@@ -88,9 +88,7 @@ def test_custom_derivative_rules_survive():
     expected = jax.grad(direct)(x)
     assert np.all(np.isfinite(expected))
     np.testing.assert_allclose(jax.grad(via_scalarizer)(x), expected, rtol=1e-14)
-    np.testing.assert_allclose(
-        jax.jacfwd(via_scalarizer)(x), jax.jacfwd(direct)(x), rtol=1e-14
-    )
+    np.testing.assert_allclose(jax.jacfwd(via_scalarizer)(x), jax.jacfwd(direct)(x), rtol=1e-14)
     np.testing.assert_allclose(
         jax.vmap(via_scalarizer)(jnp.stack([x, -x])), jax.vmap(direct)(jnp.stack([x, -x]))
     )
@@ -164,7 +162,8 @@ def test_scalarized_gradients_match_finite_differences(pd_mrp):
     @eqx.filter_jit
     def loss(k1, j11, s0):
         loop_ = eqx.tree_at(
-            lambda m: (m.controller.k1, m.plant.body.inertia), loop,
+            lambda m: (m.controller.k1, m.plant.body.inertia),
+            loop,
             (k1, loop.plant.body.inertia.at[0, 0].set(j11)),
         )
         x = MRPState(x0.sigma.at[0].set(s0), x0.omega)

@@ -84,8 +84,10 @@ def test_tuning_gradient_matches_central_differences(tolerance, settled):
     relative, and 1e-4 leaves room for FD rounding (~1e-8)."""
     loop, x0s, params, objective = _small_problem()
     objective = eqx.tree_at(
-        lambda o: (o.sample_metrics["settling_time"].tolerance,
-                   o.sample_metrics["objective_time"].tolerance),
+        lambda o: (
+            o.sample_metrics["settling_time"].tolerance,
+            o.sample_metrics["objective_time"].tolerance,
+        ),
         objective,
         (jnp.asarray(tolerance), jnp.asarray(tolerance)),
     )
@@ -130,8 +132,9 @@ def test_tuning_into_divergence_stops_with_a_clear_error_and_a_good_checkpoint(t
     )
     path = tmp_path / "run.eqx"
     with pytest.raises(tune.NonFiniteLossError) as info:
-        tune.tune(loop, params, objective, x0s, steps=5, optimizer=push, checkpoint=path,
-                  progress=False)
+        tune.tune(
+            loop, params, objective, x0s, steps=5, optimizer=push, checkpoint=path, progress=False
+        )
     error = info.value
     assert error.step == 3 and error.loss == np.inf
     assert "at step 3" in str(error) and "the loss is inf" in str(error)
@@ -153,8 +156,9 @@ def test_tuning_into_divergence_stops_with_a_clear_error_and_a_good_checkpoint(t
     assert np.all(np.asarray(aux["status"]) == jaxatt.Status.nonfinite_state)
     assert np.all(np.asarray(aux["objective_time"]) == np.inf)
     # on_nonfinite="stop": the same run returns the last good step instead of raising.
-    result = tune.tune(loop, params, objective, x0s, steps=5, optimizer=push, progress=False,
-                       on_nonfinite="stop")
+    result = tune.tune(
+        loop, params, objective, x0s, steps=5, optimizer=push, progress=False, on_nonfinite="stop"
+    )
     assert result.steps == 2 and "at step 3" in result.stopped
     assert float(result.gains["kd"]) == pytest.approx(float(gains["kd"]))
     assert result.losses.shape == (2,) and np.all(np.isfinite(result.losses))
@@ -219,8 +223,17 @@ def test_interrupted_run_resumes_bit_identically(tmp_path):
     with pytest.raises(ValueError, match="4 steps done, more than steps=2"):
         tune.tune(loop, params, objective, x0s, steps=2, resume=True, **common)
     with pytest.raises(ValueError, match="does not belong to this tuning problem"):
-        tune.tune(loop, params, objective, x0s, steps=6, resume=True, progress=False,
-                  optimizer=optax.sgd(0.1), checkpoint=short_path)
+        tune.tune(
+            loop,
+            params,
+            objective,
+            x0s,
+            steps=6,
+            resume=True,
+            progress=False,
+            optimizer=optax.sgd(0.1),
+            checkpoint=short_path,
+        )
 
 
 @pytest.mark.parametrize(

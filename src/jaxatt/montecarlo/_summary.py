@@ -100,8 +100,7 @@ class MonteCarloResult(eqx.Module):
     def _values(self, metric: str, component) -> np.ndarray:
         if metric not in self.metrics:
             raise ValueError(
-                f"MonteCarloResult: `metric` must be one of {sorted(self.metrics)}, got "
-                f"{metric!r}."
+                f"MonteCarloResult: `metric` must be one of {sorted(self.metrics)}, got {metric!r}."
             )
         values = to_host(self.metrics[metric])
         if values.shape[:1] != (self.n,):

@@ -159,8 +159,8 @@ def _dot_general(lhs, rhs, *, dimension_numbers, preferred_element_type=None, **
     rhs = np.transpose(rhs, [*rb, *rf, *rc])
     nb, nlf, nrf = len(lb), len(lf), len(rf)
     batch_shape = lhs.shape[:nb]
-    out_shape = (*batch_shape, *lhs.shape[nb:nb + nlf], *rhs.shape[nb:nb + nrf])
-    contract = lhs.shape[nb + nlf:]
+    out_shape = (*batch_shape, *lhs.shape[nb : nb + nlf], *rhs.shape[nb : nb + nrf])
+    contract = lhs.shape[nb + nlf :]
     out = np.empty(out_shape, dtype=object)
 
     def convert(v):
@@ -169,7 +169,7 @@ def _dot_general(lhs, rhs, *, dimension_numbers, preferred_element_type=None, **
         return lax.convert_element_type(v, preferred_element_type)
 
     for index in np.ndindex(out_shape):
-        b, i, j = index[:nb], index[nb:nb + nlf], index[nb + nlf:]
+        b, i, j = index[:nb], index[nb : nb + nlf], index[nb + nlf :]
         terms = [
             lax.mul(convert(lhs[(*b, *i, *k)]), convert(rhs[(*b, *j, *k)]))
             for k in np.ndindex(contract)
@@ -259,7 +259,7 @@ def _eval_cond(eqn, invals, limits: Limits):
         for shape, is_split, entries in zip(shapes, split_flags, flat):
             n = len(entries)
             if is_split:
-                out.append(_object_array(leaves[k:k + n], shape))
+                out.append(_object_array(leaves[k : k + n], shape))
             else:
                 out.append(leaves[k])
             k += n
@@ -332,7 +332,7 @@ def _regroup(leaves, spec):
     out, k = [], 0
     for shape in shapes:
         n = 1 if shape is None else math.prod(shape)
-        chunk = list(leaves[k:k + n])
+        chunk = list(leaves[k : k + n])
         out.append(chunk[0] if shape is None else tuple(chunk))
         k += n
     return out
@@ -431,10 +431,7 @@ def split_tree(tree, limits: Limits = DEFAULT_LIMITS):
 
 def pack_tree(tree, like):
     """[`pack`][] every object-array leaf of `tree` (with the dtypes of `like`'s leaves)."""
-    return jtu.tree_map(
-        lambda x, ref: pack(x, jnp.result_type(ref)), tree, like, is_leaf=_is_split
-    )
-
+    return jtu.tree_map(lambda x, ref: pack(x, jnp.result_type(ref)), tree, like, is_leaf=_is_split)
 
 
 def _object_array(entries, shape) -> np.ndarray:
@@ -501,4 +498,3 @@ def scalarized_loop_step(
         return fast(params, flat, i), None
 
     return flat0, body, unflatten
-

@@ -39,9 +39,7 @@ def raise_on_failure(traj: Trajectory) -> Trajectory:
             "constraint violation). Simulate with throw=False and read `Trajectory.status` "
             "(jaxatt.simulation.Status) to see which sample and why."
         )
-        return eqx.tree_at(
-            lambda tr: tr.ts, traj, eqx.error_if(traj.ts, traj.status != 0, message)
-        )
+        return eqx.tree_at(lambda tr: tr.ts, traj, eqx.error_if(traj.ts, traj.status != 0, message))
     codes = np.asarray(traj.status)
     if np.any(codes != 0):
         index = np.unravel_index(int(np.argmax(codes != 0)), codes.shape) if codes.ndim else ()
