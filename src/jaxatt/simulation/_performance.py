@@ -36,8 +36,13 @@ class Performance(eqx.Module):
       one `(batch,)` array per state component. `True`, `False`, or `None` (default): decided
       per backend and batch by [`resolve`][]: on XLA:CPU from [`SCALARIZE_FROM`][] = 1000
       samples run at once on one device, where it was 1.5-3x faster on a 2-core CPU
-      (benchmarks/README.md), at about twice the compile time and no gain below; off for a
-      single trajectory and off on GPUs and TPUs, where it has not been measured.
+      (benchmarks/README.md), at about twice the compile time. Below, the gain does not pay
+      for the compile. Chen's M1 loop (default metrics, float64, 2-core CPU, 2026-12-03): at
+      10, 100 and 300 samples a step took 19, 63 and 166 µs scalarized against 22, 78 and
+      194 µs plain (1.15-1.24x), but the program compiled in 3.5-3.8 s against 1.8-2.0 s,
+      which a run recovers only after about 70 000 steps at 300 samples; at 1000 samples,
+      282 against 579 µs (2.05x). Off for a single trajectory (13.7 against 8.3 µs a step)
+      and off on GPUs and TPUs, where it has not been measured.
     - `max_scalarized_size`: arrays with more entries than this stay whole (default 64).
     - `max_unrolled_products`: matrix products needing more scalar multiplications than this
       stay one packed product (default 64; a 3x3 matrix product needs 27). Keeps the compile
