@@ -31,6 +31,7 @@ import json
 import math
 import pathlib
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.random as jr
@@ -38,13 +39,13 @@ import numpy as np
 
 from ..controllers import ProximitySlidingMode, SlidingModeTracking, TranslationalSlidingMode
 from ..metrics import settling_time
-from ..montecarlo import quaternion_states
+from ..montecarlo import quaternion_states, run_batch
 from ..plants import Proximity, ProximityState, QuaternionState, RelativeOrbit, RelativeOrbitState
 from ..reaching import Exponential, Saturation
 from ..references import FlyAround
 from ..rotations import quat_from_axis_angle
 from ..signals import Sinusoid
-from ..simulation import ClosedLoop, EnergyMeter, Trajectory, simulate
+from ..simulation import ClosedLoop, EnergyMeter, Simulation, Trajectory, simulate
 from ..sliding import LinearSurface, PDSurface
 from ._protocol import Scenario
 
@@ -165,14 +166,19 @@ def dispersed_starts(key, n: int) -> ProximityState:
     )
 
 
+@eqx.filter_jit
+def _run_batch(loop: ClosedLoop, x0s: ProximityState, sim: Simulation) -> Trajectory:
+    return run_batch(loop, x0s, sim, {}, keep_trajectories=True).trajectories
+
+
 def simulate_batch(x0s: ProximityState, horizon: float = HORIZON) -> Trajectory:
-    """Fly the law from every start of the batch `x0s` (one compiled, vmapped simulation)."""
+    """Fly the law from every start of the batch `x0s` in one compiled program (jaxatt's
+    batch runner, `jaxatt.montecarlo.run_batch`); the starts are checked on the host first
+    and a failed sample keeps its status and failure time."""
     loop = build()
-
-    def one(x0):
-        return simulate(loop, x0, 0.0, horizon, dt=DT, save_every=SAVE_EVERY, throw=False)
-
-    return jax.jit(jax.vmap(one))(x0s)
+    n = jax.tree_util.tree_leaves(x0s)[0].shape[0]
+    x0s = loop.check_state(x0s, "x0s", (n,))
+    return _run_batch(loop, x0s, Simulation(0.0, horizon, DT, save_every=SAVE_EVERY))
 
 
 def _stack(first: ProximityState, rest: ProximityState) -> ProximityState:

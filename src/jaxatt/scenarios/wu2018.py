@@ -78,6 +78,7 @@ import numpy as np
 
 from ..controllers import SafeApproachSlidingMode
 from ..metrics import settling_time
+from ..montecarlo import run_batch
 from ..orbits import MU_EARTH
 from ..plants import (
     Proximity,
@@ -91,7 +92,7 @@ from ..references import AbstractReference, AttitudeReference, PoseReference, Tr
 from ..rotations import mrp_kinematics_matrix, quat_from_mrp
 from ..safety import CollisionAvoidance, ConeCorridor, KeepOutSphere
 from ..signals import AbstractSignal
-from ..simulation import ClosedLoop, Simulation, Status, Trajectory, integrate
+from ..simulation import ClosedLoop, Simulation, Status, Trajectory
 from ._protocol import Scenario
 
 
@@ -225,7 +226,11 @@ def _stack(trees):
 
 @eqx.filter_jit
 def _integrate_batch(loops: ClosedLoop, x0s: ProximityState, sim: Simulation) -> Trajectory:
-    return eqx.filter_vmap(lambda loop, x0: integrate(loop, x0, sim))(loops, x0s)
+    """One loop per sample (every array of `loops` stacked) through jaxatt's batch runner."""
+    per_sample, structure = eqx.partition(loops, eqx.is_array)
+    return run_batch(
+        structure, x0s, sim, {}, batched=per_sample, keep_trajectories=True
+    ).trajectories
 
 
 def simulate_batch(
