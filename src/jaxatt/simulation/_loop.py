@@ -268,7 +268,6 @@ def _run_streaming(closed_loop, sim, stream, one_step, sample, time, carry0) -> 
     t_last = time(sim.n_steps)
     signals0 = closed_loop.signals(time(0), y0, held0)
     state0 = stream.init(time(0), signals0, t_last)
-    pairs = ()
     if sim.performance.scalarize:
         # Carry the stream's fresh values two per complex number: one XLA:CPU kernel each
         # (`._pairing`; same values).
