@@ -275,12 +275,11 @@ def _run_streaming(closed_loop, sim, stream, one_step, sample, time, carry0) -> 
         pairs = plan_pairs(jtu.tree_leaves(state0), reads)
         stream = _PairedStream(stream, pairs)
         state0 = pair(state0, pairs)
-    module = (closed_loop, stream)
-    if sim.performance.scalarize:
         flat0, step, unflatten = scalarized_loop_step(
-            streaming_step, module, (carry0, state0), sim.performance.limits
+            streaming_step, (closed_loop, stream), (carry0, state0), sim.performance.limits
         )
     else:
+        module = (closed_loop, stream)
         flat0 = (carry0, state0)
 
         def step(carry, i):

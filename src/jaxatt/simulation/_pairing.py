@@ -8,7 +8,8 @@ time, the rate-error norm): each became a kernel that recomputed the controller 
 attitude error it reads. Carrying two of those values as the real and imaginary parts of one
 complex number makes them one output, computed in one kernel: the default 4-metric
 `monte_carlo` went from 0.79x to 0.90x the hand-written scan at batch 1000, and from 0.97x to
-1.05x at 3000, on a 2-core CPU (`benchmarks/README.md`, issue 18).
+1.05x at 3000, on a 2-core CPU (`benchmarks/bench_quick.py --horizon 1`; `benchmarks/README.md`,
+issue 18).
 
 `signal_dependencies` finds the values worth pairing (the leaves of the stream's state
 that depend on the step's signals, by a dependency pass over the update's jaxpr), `plan_pairs`

@@ -37,7 +37,8 @@ class Performance(eqx.Module):
       per backend and batch by [`resolve`][]: on XLA:CPU from [`SCALARIZE_FROM`][] = 1000
       samples run at once on one device, where it was 1.5-3x faster on a 2-core CPU
       (benchmarks/README.md), at about twice the compile time. Below, the gain does not pay
-      for the compile. Chen's M1 loop (default metrics, float64, 2-core CPU, 2026-12-03): at
+      for the compile. Chen's M1 loop (default metrics, float64, 2-core CPU, 2026-12-03; 1 s
+      runs of `monte_carlo` with `scalarize` forced, min of up to 5 after a warm-up): at
       10, 100 and 300 samples a step took 19, 63 and 166 µs scalarized against 22, 78 and
       194 µs plain (1.15-1.24x), but the program compiled in 3.5-3.8 s against 1.8-2.0 s,
       which a run recovers only after about 70 000 steps at 300 samples; at 1000 samples,
