@@ -118,7 +118,7 @@ def test_an_inadmissible_start_through_simulate_raises_before_anything_runs(monk
     def must_not_run(*args, **kwargs):
         raise AssertionError("simulate compiled or ran the loop before refusing the start")
 
-    monkeypatch.setattr(simulate_module, "integrate_jit", must_not_run)
+    monkeypatch.setattr(simulate_module, "compiled", lambda *args: must_not_run)
     loop = ClosedLoop(_plant(), _ftac())
     with pytest.raises(ValueError) as info:
         simulate(loop, MRPState(PAPER_SIGMA0, PAPER_OMEGA0), 0.0, 1.0, dt=1e-3)

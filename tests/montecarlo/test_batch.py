@@ -127,7 +127,12 @@ def test_streamed_default_equals_the_saved_trajectory_reduction(chen_batch):
     )
     trajs = saved.trajectories
     ok = np.asarray(saved.successful)
-    for scalarize in (False, True):
+    performances = (
+        Performance(scalarize=False),
+        Performance(scalarize=True),  # compiled for 512-bit vectors on CPU
+        Performance(scalarize=True, vector_width=256),
+    )
+    for performance in performances:
         streamed = mc.monte_carlo(
             batched,
             x0s,
@@ -137,7 +142,7 @@ def test_streamed_default_equals_the_saved_trajectory_reduction(chen_batch):
             loop_axes=axes,
             save_every=SAVE_EVERY,
             metrics=objects,
-            performance=Performance(scalarize=scalarize),
+            performance=performance,
         )
         assert streamed.trajectories is None  # nothing saved by default
         np.testing.assert_array_equal(streamed.status, saved.status)
@@ -163,6 +168,34 @@ def test_default_scalarization_rule():
     assert samples_at_once(4000, batch_size=500) == 500  # lax.map runs 500 at a time
     assert samples_at_once(1500, devices=2) == 750 and samples_at_once(2000, devices=2) == 1000
     assert Performance(scalarize=False).resolve(10**6, "cpu").scalarize is False
+
+
+def test_vector_width_option():
+    option = "xla_cpu_prefer_vector_width"
+    auto = Performance()
+    assert auto.resolve(1000, "cpu").compiler_options("cpu") == {option: 512}  # scalarized
+    assert auto.resolve(999, "cpu").compiler_options("cpu") == {}  # plain: XLA's default
+    assert Performance(vector_width=256).resolve(1000, "cpu").compiler_options("cpu") == {
+        option: 256
+    }
+    assert Performance(vector_width=128).resolve(1, "cpu").compiler_options("cpu") == {option: 128}
+    assert Performance(scalarize=True, vector_width=512).compiler_options("gpu") == {}
+    for bad in (384, 0, True):  # (non-integers: the test suite's type checker refuses them first)
+        with pytest.raises(ValueError, match="`vector_width` must be None or one of 128, 256, 512"):
+            Performance(vector_width=bad)
+
+
+def test_compiler_options_reach_xla(monkeypatch):
+    # `simulate` and `monte_carlo` compile with the options their Performance asks for: an
+    # option XLA does not know is refused by XLA's compiler, so it got there.
+    monkeypatch.setattr(
+        Performance, "compiler_options", lambda self, backend=None: {"xla_no_such_option": 1}
+    )
+    loop, x0s = mrp_pd_loop(), MRPState(jnp.full((2, 3), 0.1), jnp.zeros((2, 3)))
+    with pytest.raises(Exception, match="xla_no_such_option"):
+        mc.monte_carlo(loop, x0s, 0.0, 0.01, dt=1e-3)
+    with pytest.raises(Exception, match="xla_no_such_option"):
+        jaxatt.simulate(loop, _index(x0s, 0), 0.0, 0.01, dt=1e-3)
 
 
 def test_batched_fields_really_differ_between_samples(chen_batch):

@@ -23,10 +23,11 @@ import jaxatt
 from jaxatt import cli, tune
 from jaxatt.controllers import MRPPD
 from jaxatt.metrics import ConvergenceTime, Peak, SettlingTime, TimeOutside
-from jaxatt.montecarlo._batch import run_batch_jit
+from jaxatt.montecarlo._batch import run_batch
 from jaxatt.plants import MRPState, RigidBodyMRP
 from jaxatt.simulation import ClosedLoop, Performance, Simulation
-from jaxatt.simulation._loop import integrate_jit
+from jaxatt.simulation._compiled import compiled
+from jaxatt.simulation._loop import integrate
 from jaxatt.tune._loop import _loss_and_grad
 
 
@@ -57,12 +58,14 @@ def test_jaxatts_compiled_programs_hold_no_host_callback():
     params = {"k1": tune.Parameter("controller.k1", tune.Positive())}
     objective = tune.SettlingObjective(t1=0.1, dt=1e-2, tolerance=1e-3)
     u = dict(tune.initial_unconstrained(loop, params))
+    plain, scalarized = Performance(scalarize=False), Performance(scalarize=True)
     programs = {
-        "simulate": integrate_jit.lower(
-            loop, x0, sim.with_performance(Performance(scalarize=False))
+        "simulate": compiled(integrate, plain).lower(loop, x0, sim.with_performance(plain)),
+        "monte_carlo": compiled(run_batch, plain).lower(
+            loop, x0s, sim.with_performance(plain), METRICS
         ),
-        "monte_carlo": run_batch_jit.lower(
-            loop, x0s, sim.with_performance(Performance(scalarize=False)), METRICS
+        "monte_carlo, scalarized": compiled(run_batch, scalarized).lower(
+            loop, x0s, sim.with_performance(scalarized), METRICS, stream=True
         ),
         "tune step": _loss_and_grad.lower(u, loop, params, objective, x0s),
     }

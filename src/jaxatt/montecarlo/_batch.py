@@ -21,7 +21,7 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from jaxtyping import Array, ArrayLike, PyTree
 
 from .._paths import path_selector
-from .._validation import check_tree_finite, host_checked_program
+from .._validation import check_tree_finite
 from ..metrics import AbstractMetric
 from ..simulation import (
     RK4,
@@ -38,6 +38,7 @@ from ..simulation import (
     integrate_streaming,
     samples_at_once,
 )
+from ..simulation._compiled import compiled
 from ..simulation._simulate import any_traced, check_closed_loop
 from ._summary import MonteCarloResult
 
@@ -199,10 +200,6 @@ def run_batch(
     return MonteCarloResult(
         metrics=values, status=status, failure_time=failure_time, trajectories=trajs
     )
-
-
-# `monte_carlo` checks states, settings and metrics on the host before calling it.
-run_batch_jit = eqx.filter_jit(host_checked_program(run_batch))
 
 
 def _is_none(x) -> bool:
@@ -467,7 +464,8 @@ def monte_carlo(
             Mesh(np.asarray(devices), (_BATCH_AXIS,)), PartitionSpec(_BATCH_AXIS)
         )
         xs = jtu.tree_map(lambda x: _place(_pad(jnp.asarray(x), padded), sharding), xs)
-    out = run_batch_jit(
+    # Checked on the host above: the program holds no host callback.
+    out = compiled(run_batch, sim.performance)(
         loop,
         xs[0],
         sim,

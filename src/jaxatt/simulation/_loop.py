@@ -23,7 +23,6 @@ import jax.numpy as jnp
 import jax.tree_util as jtu
 from jaxtyping import Array, PyTree
 
-from .._validation import host_checked_program
 from ._closed_loop import AbstractClosedLoop, HeldOutputs
 from ._pairing import Paired, pair, plan_pairs, signal_dependencies, unpair
 from ._scalarize import scalarized_loop_step
@@ -226,11 +225,6 @@ def _run(closed_loop, x0, sim, stream):
         failure_time=failure_time,
         events=events,
     )
-
-
-integrate_jit = eqx.filter_jit(host_checked_program(integrate))
-"""[`integrate`][] compiled with `eqx.filter_jit` (what `simulate` calls), its inputs checked on
-the host by `simulate`: no host callback in the program (`jaxatt._validation.host_checked`)."""
 
 
 def _run_streaming(closed_loop, sim, stream, one_step, sample, time, carry0) -> Streamed:

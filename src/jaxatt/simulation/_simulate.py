@@ -8,7 +8,8 @@ from jaxtyping import PyTree
 
 from .._validation import is_traced
 from ._closed_loop import AbstractClosedLoop
-from ._loop import integrate_jit
+from ._compiled import compiled
+from ._loop import integrate
 from ._performance import Performance
 from ._sampling import AbstractSampling, Continuous
 from ._settings import Simulation
@@ -115,5 +116,5 @@ def simulate(
     if not any_traced((closed_loop, x0)):
         closed_loop.check_initial(sim.t0, x0)
     sim = sim.with_performance(sim.performance.resolve(1))
-    traj = integrate_jit(closed_loop, x0, sim)
+    traj = compiled(integrate, sim.performance)(closed_loop, x0, sim)
     return raise_on_failure(traj) if throw else traj
