@@ -10,7 +10,9 @@ over it and the equality of its results are measured in one run of this script.
 
 Each worker process (one per library version, run one after the other, baseline first) times
 for every batch: `default` (the call above), `sparse` (`save_every` = all steps: the sparsest
-save, what the default aims to match) and the hand `scan`; compile time (ahead-of-time lower +
+save, what the default aims to match) and the hand `scan`; the two jaxatt calls run inside a
+`jit` compiled with the XLA options `monte_carlo` passes when called eagerly (none in libraries
+before them; `_quick.UserProgram`); compile time (ahead-of-time lower +
 compile) apart from run time (warm-up, then `--repeat` rounds of one call of each program in
 turn, min per program: the three share the machine's load changes). Throughput in
 state-steps per second (batch x RK4 steps / run time). Ratios `default/scan` are within one
@@ -73,7 +75,6 @@ def worker(args) -> None:
         jax.config.update("jax_enable_x64", True)
     import _quick
     import _reference as ref
-    import equinox as eqx
     import jax.numpy as jnp
     import numpy as np
 
@@ -93,15 +94,16 @@ def worker(args) -> None:
         q, omega = _quick.initial_states(0, max(args.batches), dtype)
     arrays_x0 = {"x0/q": q, "x0/omega": omega}
 
-    @eqx.filter_jit
+    # Each jit gets the XLA options monte_carlo passes when called eagerly (none before them).
+    @_quick.UserProgram
     def default(loop, x0s):
         return monte_carlo(loop, x0s, 0.0, horizon, dt=DT)
 
-    @eqx.filter_jit
+    @_quick.UserProgram
     def sparse(loop, x0s):
         return monte_carlo(loop, x0s, 0.0, horizon, dt=DT, save_every=n_steps)
 
-    @eqx.filter_jit
+    @_quick.UserProgram
     def final_states(loop, x0s):
         out = monte_carlo(
             loop, x0s, 0.0, horizon, dt=DT, save_every=n_steps, keep_trajectories=True

@@ -198,6 +198,30 @@ def test_compiler_options_reach_xla(monkeypatch):
         jaxatt.simulate(loop, _index(x0s, 0), 0.0, 0.01, dt=1e-3)
 
 
+def test_entry_points_with_compiler_options_work_inside_user_programs():
+    # JAX refuses compiler options on a nested `jit`: inside the caller's `jit` or `grad`,
+    # `simulate` and `monte_carlo` become part of the caller's program and pass none.
+    loop, x0s = mrp_pd_loop(), MRPState(jnp.full((2, 3), 0.1), jnp.zeros((2, 3)))
+    performance = Performance(vector_width=256)  # options even for the plain program
+    assert performance.resolve(2, "cpu").compiler_options("cpu")
+
+    def effort(x0s):
+        result = mc.monte_carlo(loop, x0s, 0.0, 0.01, dt=1e-3, performance=performance)
+        return result.metrics["effort"].sum()
+
+    def final(x0):
+        traj = jaxatt.simulate(loop, x0, 0.0, 0.01, dt=1e-3, performance=performance)
+        return traj.states.plant.sigma[-1].sum()
+
+    eager = effort(x0s)
+    np.testing.assert_allclose(jax.jit(effort)(x0s), eager, rtol=1e-12)
+    assert np.all(np.isfinite(jax.grad(effort)(x0s).sigma))
+    x0 = _index(x0s, 0)
+    np.testing.assert_allclose(jax.jit(final)(x0), final(x0), rtol=1e-12)
+    assert np.all(np.isfinite(jax.grad(final)(x0).sigma))
+    assert np.all(np.isfinite(jax.vmap(final)(x0s)))
+
+
 def test_batched_fields_really_differ_between_samples(chen_batch):
     # Guard for the test above: with one shared inertia the loop comparison would be vacuous.
     _, _, inertias, _, result = chen_batch

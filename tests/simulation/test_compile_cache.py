@@ -60,11 +60,11 @@ def test_jaxatts_compiled_programs_hold_no_host_callback():
     u = dict(tune.initial_unconstrained(loop, params))
     plain, scalarized = Performance(scalarize=False), Performance(scalarize=True)
     programs = {
-        "simulate": compiled(integrate, plain).lower(loop, x0, sim.with_performance(plain)),
-        "monte_carlo": compiled(run_batch, plain).lower(
+        "simulate": compiled(integrate, plain, ()).lower(loop, x0, sim.with_performance(plain)),
+        "monte_carlo": compiled(run_batch, plain, ()).lower(
             loop, x0s, sim.with_performance(plain), METRICS
         ),
-        "monte_carlo, scalarized": compiled(run_batch, scalarized).lower(
+        "monte_carlo, scalarized": compiled(run_batch, scalarized, ()).lower(
             loop, x0s, sim.with_performance(scalarized), METRICS, stream=True
         ),
         "tune step": _loss_and_grad.lower(u, loop, params, objective, x0s),

@@ -465,7 +465,7 @@ def monte_carlo(
         )
         xs = jtu.tree_map(lambda x: _place(_pad(jnp.asarray(x), padded), sharding), xs)
     # Checked on the host above: the program holds no host callback.
-    out = compiled(run_batch, sim.performance)(
+    out = compiled(run_batch, sim.performance, (loop, xs))(
         loop,
         xs[0],
         sim,

@@ -60,16 +60,17 @@ class Performance(eqx.Module):
       loop's code (XLA's `xla_cpu_prefer_vector_width` compiler option, passed to the
       `jax.jit` of the program [`simulate`][jaxatt.simulate] or
       [`monte_carlo`][jaxatt.montecarlo.monte_carlo] compiles): 128, 256 or 512, or `None`
-      (default): [`SCALARIZED_VECTOR_WIDTH`][] = 512 for a scalarized loop, XLA's own
-      default (256) otherwise. A scalarized batch is elementwise code on `(batch,)` arrays,
-      which fills 512-bit registers: on this project's 2-core AVX-512 Xeon, Chen's M1 Monte
-      Carlo (default call, float64, 1 s) ran 1.14x faster at 1000 samples and 1.23x at 3000
-      with 512 (benchmarks/README.md, "AVX-512"); the plain program (300 samples), a single
-      trajectory and a tuning gradient did not change (within 1 %). On a CPU without
-      AVX-512 the option changes nothing (measured with XLA's `--xla_cpu_max_isa=AVX2`).
-      Results are the same to the last bit in those runs (elementwise code; no reduction
-      changes order). CPU only: ignored on other backends. Applies where jaxatt compiles
-      the program; inside your own `jax.jit`, pass [`compiler_options`][] to it.
+      (default): 512 for a scalarized loop, XLA's own default (256) otherwise. A scalarized
+      batch is elementwise code on `(batch,)` arrays, which fills 512-bit registers: on this
+      project's 2-core AVX-512 Xeon, Chen's M1 Monte Carlo (default call, float64, 1 s) ran
+      1.09-1.14x faster at 1000 samples and 1.23x at 3000 with 512 (benchmarks/README.md,
+      "512-bit vectors"); the plain program (300 samples), a single trajectory and a tuning
+      gradient did not change (within 1 %). On a CPU without AVX-512 the option changes
+      nothing (measured with XLA's `--xla_cpu_max_isa=AVX2`). The default metrics and final
+      states of 1000 samples over 2 s were bit for bit the same with 256 and 512 (elementwise
+      code; no reduction changes order). CPU only: ignored on other backends. Applies where
+      jaxatt compiles the program; inside your own `jax.jit`, pass
+      [`compiler_options`][jaxatt.simulation.Performance.compiler_options] to it.
 
     Forward- and reverse-mode derivatives of a scalarized loop go through the ordinary
     program (same values), so tuning can use the option a Monte Carlo study used.

@@ -116,5 +116,5 @@ def simulate(
     if not any_traced((closed_loop, x0)):
         closed_loop.check_initial(sim.t0, x0)
     sim = sim.with_performance(sim.performance.resolve(1))
-    traj = compiled(integrate, sim.performance)(closed_loop, x0, sim)
+    traj = compiled(integrate, sim.performance, (closed_loop, x0))(closed_loop, x0, sim)
     return raise_on_failure(traj) if throw else traj
