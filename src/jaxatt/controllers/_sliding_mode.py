@@ -7,6 +7,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike, Vec3
 from .._validation import check_spd
+from ..numerics import materialized
 from ..plants import QuaternionState
 from ..reaching import AbstractReachingLaw
 from ..references import AttitudeReference
@@ -86,8 +87,9 @@ class SlidingModeTracking(AbstractController):
         reference: AttitudeReference,
         state: None,
     ) -> tuple[Vec3, None]:
-        del t, state
-        errors = tracking_errors(measurement, reference, self.inertia)
+        del state
+        # Read by every component of the torque: computed once (exact; see `materialized`).
+        errors = materialized(tracking_errors(measurement, reference, self.inertia), t)
         s = self.surface(errors.e, errors.e_omega)
         # The rate error derivative that makes s_dot = r(s) - nu(s) when D = 0.
         e_omega_dot = self.reaching_law.rate(s) - errors.drift

@@ -14,6 +14,7 @@ from ._fractional import (
     riemann_liouville as riemann_liouville,
 )
 from ._linalg import det3 as det3, inv3 as inv3, solve3 as solve3, spectral_norm as spectral_norm
+from ._materialize import materialized as materialized
 from ._norm import safe_norm as safe_norm, safe_normalize as safe_normalize
 from ._power import abs_pow as abs_pow, sig_pow as sig_pow
 from ._switching import (
