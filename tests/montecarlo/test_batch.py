@@ -129,8 +129,8 @@ def test_streamed_default_equals_the_saved_trajectory_reduction(chen_batch):
     ok = np.asarray(saved.successful)
     performances = (
         Performance(scalarize=False),
-        Performance(scalarize=True),  # compiled for 512-bit vectors on CPU
-        Performance(scalarize=True, vector_width=256),
+        Performance(scalarize=True),  # no compiler option: XLA's defaults
+        Performance(scalarize=True, vector_width=512),  # the opt-in wide vectors
     )
     for performance in performances:
         streamed = mc.monte_carlo(
@@ -173,8 +173,13 @@ def test_default_scalarization_rule():
 def test_vector_width_option():
     option = "xla_cpu_prefer_vector_width"
     auto = Performance()
-    assert auto.resolve(1000, "cpu").compiler_options("cpu") == {option: 512}  # scalarized
-    assert auto.resolve(999, "cpu").compiler_options("cpu") == {}  # plain: XLA's default
+    # No option unless asked: with 512 the default for scalarized loops, 3 of 4 test-suite
+    # runs under XLA's default code generator crashed in XLA (Performance's docstring).
+    assert auto.resolve(1000, "cpu").compiler_options("cpu") == {}  # scalarized
+    assert auto.resolve(999, "cpu").compiler_options("cpu") == {}  # plain
+    assert Performance(vector_width=512).resolve(1000, "cpu").compiler_options("cpu") == {
+        option: 512
+    }
     assert Performance(vector_width=256).resolve(1000, "cpu").compiler_options("cpu") == {
         option: 256
     }

@@ -24,11 +24,6 @@ at once (per device, or per `lax.map` chunk) are scalarized on CPU backends."""
 VECTOR_WIDTHS = (128, 256, 512)
 """Accepted values of `Performance(vector_width=...)` [bits]."""
 
-SCALARIZED_VECTOR_WIDTH = 512
-"""With `Performance(vector_width=None)` (the default), the SIMD width [bits] XLA:CPU is asked
-to prefer for a scalarized loop."""
-
-
 def _check_size(name: str, value) -> int:
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
         raise ValueError(f"Performance: `{name}` must be a positive integer, got {value!r}.")
@@ -60,17 +55,24 @@ class Performance(eqx.Module):
       loop's code (XLA's `xla_cpu_prefer_vector_width` compiler option, passed to the
       `jax.jit` of the program [`simulate`][jaxatt.simulate] or
       [`monte_carlo`][jaxatt.montecarlo.monte_carlo] compiles): 128, 256 or 512, or `None`
-      (default): 512 for a scalarized loop, XLA's own default (256) otherwise. A scalarized
-      batch is elementwise code on `(batch,)` arrays, which fills 512-bit registers: on this
-      project's 2-core AVX-512 Xeon, Chen's M1 Monte Carlo (default call, float64, 1 s) ran
-      1.09-1.14x faster at 1000 samples and 1.23x at 3000 with 512 (benchmarks/README.md,
-      "512-bit vectors"); the plain program (300 samples), a single trajectory and a tuning
-      gradient did not change (within 1 %). On a CPU without AVX-512 the option changes
-      nothing (measured with XLA's `--xla_cpu_max_isa=AVX2`). The default metrics and final
-      states of 1000 samples over 2 s were bit for bit the same with 256 and 512 (elementwise
-      code; no reduction changes order). CPU only: ignored on other backends. Applies where
-      jaxatt compiles the program; inside your own `jax.jit`, pass
-      [`compiler_options`][jaxatt.simulation.Performance.compiler_options] to it.
+      (default): no option, XLA's own choice (256). A scalarized batch is elementwise code on
+      `(batch,)` arrays, which fills 512-bit registers: on this project's 2-core AVX-512
+      Xeon, Chen's M1 Monte Carlo (default call, float64, 1 s) ran 1.09-1.14x faster at 1000
+      samples and 1.23x at 3000 with `vector_width=512` (benchmarks/README.md, "512-bit
+      vectors"); the plain program (300 samples), a single trajectory and a tuning gradient
+      did not change (within 1 %). On a CPU without AVX-512 the option changes nothing
+      (measured with XLA's `--xla_cpu_max_isa=AVX2`). The default metrics and final states
+      of 1000 samples over 2 s were bit for bit the same with 256 and 512. CPU only: ignored
+      on other backends. Applies where jaxatt compiles the program; inside your own
+      `jax.jit`, pass [`compiler_options`][jaxatt.simulation.Performance.compiler_options] to
+      it. **Opt-in because of a crash:** while 512 was the default for scalarized loops,
+      3 of 4 runs of the test suite with XLA:CPU's default code generator lost a process to
+      a segmentation fault (a compile that reported an error, and the C++ exception carrying
+      it crashed in the unwinder); with no option passed, and in every run with
+      `--xla_cpu_use_fusion_emitters=false`, none did. Those processes compiled hundreds of
+      programs with and without the option; a study that compiles a few programs is not
+      known to be affected, but the cause is not established (benchmarks/README.md, "The
+      512-bit default withdrawn").
 
     Forward- and reverse-mode derivatives of a scalarized loop go through the ordinary
     program (same values), so tuning can use the option a Monte Carlo study used.
@@ -120,8 +122,6 @@ class Performance(eqx.Module):
         if backend != "cpu":
             return {}
         width = self.vector_width
-        if width is None and self.scalarize:
-            width = SCALARIZED_VECTOR_WIDTH
         return {} if width is None else {"xla_cpu_prefer_vector_width": width}
 
 
