@@ -24,6 +24,7 @@ at once (per device, or per `lax.map` chunk) are scalarized on CPU backends."""
 VECTOR_WIDTHS = (128, 256, 512)
 """Accepted values of `Performance(vector_width=...)` [bits]."""
 
+
 def _check_size(name: str, value) -> int:
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
         raise ValueError(f"Performance: `{name}` must be a positive integer, got {value!r}.")
