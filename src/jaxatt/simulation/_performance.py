@@ -70,10 +70,10 @@ class Performance(eqx.Module):
       3 of 4 runs of the test suite with XLA:CPU's default code generator lost a process to
       a segmentation fault (a compile that reported an error, and the C++ exception carrying
       it crashed in the unwinder); with no option passed, and in every run with
-      `--xla_cpu_use_fusion_emitters=false`, none did. Those processes compiled hundreds of
-      programs with and without the option; a study that compiles a few programs is not
-      known to be affected, but the cause is not established (benchmarks/README.md, "The
-      512-bit default withdrawn").
+      `--xla_cpu_use_fusion_emitters=false`, none did; with 512 set for the whole process
+      (`XLA_FLAGS`) a run crashed too. Those processes compiled hundreds of programs; a
+      study that compiles a few is not known to be affected, but the cause is not
+      established (benchmarks/README.md, "The 512-bit default withdrawn").
 
     Forward- and reverse-mode derivatives of a scalarized loop go through the ordinary
     program (same values), so tuning can use the option a Monte Carlo study used.
