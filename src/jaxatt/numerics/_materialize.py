@@ -38,11 +38,15 @@ def materialized(tree: PyTree, t: ArrayLike) -> PyTree:
     2.5e-14 relative and metrics by 5e-16.
 
     **Measured** (`SlidingModeTracking` materializes its tracking errors; Chen 2022 M1,
-    float64, 2-core AVX-512 CPU; benchmarks/README.md, "Materialized tracking errors"):
+    float64, 2-core AVX-512 CPU, with the 512-bit vectors that were then the default;
+    benchmarks/README.md, "Materialized tracking errors"):
     - the default Monte Carlo call: 1.16-1.20x the hand scan at 1000 samples (0.97-1.00x
       before) and 1.34-1.37x at 10 000 (1.28-1.29x);
     - the plain program at 300 samples: 1.07-1.14x faster;
     - the demo's 32-sample tuning gradient: 1.14x faster.
+
+    With today's default (no compiler option) the default call runs at 1.08-1.13x the hand
+    scan at 1000 samples and 1.18-1.22x at 10 000 ("The 512-bit default withdrawn").
 
     Materializing the sliding variable as well, or every RK4 stage's state or derivative, made
     the step slower: where to use it is measured, not guessed.

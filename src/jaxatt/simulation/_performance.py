@@ -53,27 +53,28 @@ class Performance(eqx.Module):
       stay one packed product (default 64; a 3x3 matrix product needs 27). Keeps the compile
       time of plants with graph Laplacians or modal matrices linear in their size.
     - `vector_width`: the SIMD width in bits that XLA:CPU should prefer when it generates the
-      loop's code (XLA's `xla_cpu_prefer_vector_width` compiler option, passed to the
-      `jax.jit` of the program [`simulate`][jaxatt.simulate] or
+      loop's code (XLA's `xla_cpu_prefer_vector_width` compiler option, passed to the `jax.jit`
+      of the program [`simulate`][jaxatt.simulate] or
       [`monte_carlo`][jaxatt.montecarlo.monte_carlo] compiles): 128, 256 or 512, or `None`
       (default): no option, XLA's own choice (256). A scalarized batch is elementwise code on
-      `(batch,)` arrays, which fills 512-bit registers: on this project's 2-core AVX-512
-      Xeon, Chen's M1 Monte Carlo (default call, float64, 1 s) ran 1.09-1.14x faster at 1000
-      samples and 1.23x at 3000 with `vector_width=512` (benchmarks/README.md, "512-bit
-      vectors"); the plain program (300 samples), a single trajectory and a tuning gradient
-      did not change (within 1 %). On a CPU without AVX-512 the option changes nothing
-      (measured with XLA's `--xla_cpu_max_isa=AVX2`). The default metrics and final states
-      of 1000 samples over 2 s were bit for bit the same with 256 and 512. CPU only: ignored
-      on other backends. Applies where jaxatt compiles the program; inside your own
-      `jax.jit`, pass [`compiler_options`][jaxatt.simulation.Performance.compiler_options] to
-      it. **Opt-in because of a crash:** while 512 was the default for scalarized loops,
-      3 of 4 runs of the test suite with XLA:CPU's default code generator lost a process to
-      a segmentation fault (a compile that reported an error, and the C++ exception carrying
-      it crashed in the unwinder); with no option passed, and in every run with
-      `--xla_cpu_use_fusion_emitters=false`, none did; with 512 set for the whole process
-      (`XLA_FLAGS`) a run crashed too. Those processes compiled hundreds of programs; a
-      study that compiles a few is not known to be affected, but the cause is not
-      established (benchmarks/README.md, "The 512-bit default withdrawn").
+      `(batch,)` arrays, which fills 512-bit registers: on this project's 2-core AVX-512 Xeon,
+      Chen's M1 Monte Carlo (default call, float64, 1 s) ran 1.09-1.14x faster at 1000 samples
+      and 1.23x at 3000 with `vector_width=512` (benchmarks/README.md, "512-bit vectors"), and
+      1.04-1.10x at 1000-10 000 (set for the whole process through `XLA_FLAGS`) once the
+      tracking errors were materialized; the plain program (300 samples), a single trajectory
+      and a tuning gradient did not change (within 1 %). On a CPU without AVX-512 the option
+      changes nothing (measured with XLA's `--xla_cpu_max_isa=AVX2`). The default metrics and
+      final states of 1000 samples over 2 s were bit for bit the same with 256 and 512. CPU
+      only: ignored on other backends. Applies where jaxatt compiles the program; inside your
+      own `jax.jit`, pass [`compiler_options`][jaxatt.simulation.Performance.compiler_options]
+      to it. **Opt-in because of a crash:** while 512 was the default for scalarized loops, 3 of
+      4 runs of the test suite with XLA:CPU's default code generator lost a process to a
+      segmentation fault (a compile that reported an error, and the C++ exception carrying it
+      crashed in the unwinder); with 512 set for the whole process (`XLA_FLAGS`) a run
+      crashed too; with no option by default 2 of 4 runs did, and none of 6 with
+      `--xla_cpu_use_fusion_emitters=false`. Those processes compiled hundreds of programs; a study
+      that compiles a few is not known to be affected, but the cause is not established
+      (benchmarks/README.md, "The 512-bit default withdrawn").
 
     Forward- and reverse-mode derivatives of a scalarized loop go through the ordinary
     program (same values), so tuning can use the option a Monte Carlo study used.
