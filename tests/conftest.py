@@ -5,6 +5,7 @@ the open (`XLA_FLAGS=--xla_cpu_use_fusion_emitters=false`, XLA:CPU's faster-comp
 generator; docs/testing.md), and `tests/test_xla_codegen.py` checks that both generators agree.
 """
 
+import gc
 import os
 
 
@@ -51,6 +52,47 @@ def _compilation_cache_stays_off():
         from jax.experimental.compilation_cache import compilation_cache
 
         compilation_cache.reset_cache()
+
+
+def _memory_map_count() -> int | None:
+    """How many memory mappings this process holds (Linux: lines of /proc/self/maps)."""
+    try:
+        with open("/proc/self/maps", "rb") as maps:
+            return maps.read().count(b"\n")
+    except OSError:
+        return None
+
+
+def _memory_map_limit() -> int | None:
+    """The kernel's per-process limit on memory mappings (Linux: vm.max_map_count)."""
+    try:
+        with open("/proc/sys/vm/max_map_count") as limit:
+            return int(limit.read())
+    except (OSError, ValueError):
+        return None
+
+
+_MAP_LIMIT = _memory_map_limit()
+
+
+@pytest.fixture(autouse=True)
+def _compiled_programs_stay_under_the_memory_map_limit():
+    """Every program XLA:CPU compiles holds memory mappings for its machine code (5-15 per
+    program; 1.6x more with XLA's default fusion emitters than with its IR emitters), and JAX
+    keeps every compiled program for the life of the process. A pytest worker compiles about
+    a thousand programs: one reached 43 000 mappings by the end of a CI-configured run. At the
+    kernel's limit (vm.max_map_count, 65 530 by default) XLA's JIT fails to allocate ("LLVM
+    compilation error: Cannot allocate memory") and the process dies with a segfault while the
+    error propagates: the crash that hit 6 of 9 runs of the suite with XLA's defaults
+    (docs/testing.md). After a test that leaves the worker past half the limit, the compiled
+    programs are dropped (`jax.clear_caches()`); tests after it compile what they need again."""
+    yield
+    if _MAP_LIMIT is None:
+        return
+    count = _memory_map_count()
+    if count is not None and count > _MAP_LIMIT // 2:
+        jax.clear_caches()
+        gc.collect()
 
 
 # Scheduling for `pytest -n 2`. Nearly all of the suite's time is XLA compilation, and a
