@@ -67,14 +67,11 @@ class Performance(eqx.Module):
       final states of 1000 samples over 2 s were bit for bit the same with 256 and 512. CPU
       only: ignored on other backends. Applies where jaxatt compiles the program; inside your
       own `jax.jit`, pass [`compiler_options`][jaxatt.simulation.Performance.compiler_options]
-      to it. **Opt-in because of a crash:** while 512 was the default for scalarized loops, 3 of
-      4 runs of the test suite with XLA:CPU's default code generator lost a process to a
-      segmentation fault (a compile that reported an error, and the C++ exception carrying it
-      crashed in the unwinder); with 512 set for the whole process (`XLA_FLAGS`) a run
-      crashed too; with no option by default 2 of 4 runs did, and none of 6 with
-      `--xla_cpu_use_fusion_emitters=false`. Those processes compiled hundreds of programs; a study
-      that compiles a few is not known to be affected, but the cause is not established
-      (benchmarks/README.md, "The 512-bit default withdrawn").
+      to it. Opt-in: it was the default for scalarized loops for a day and was withdrawn
+      after test processes crashed in XLA; the crashes turned out to be processes that had
+      compiled about a thousand programs running out of memory mappings (Linux's
+      `vm.max_map_count`), with or without the option (docs/performance.md, "Long processes
+      and the memory-map limit"). It has not been made the default again.
 
     Forward- and reverse-mode derivatives of a scalarized loop go through the ordinary
     program (same values), so tuning can use the option a Monte Carlo study used.
