@@ -91,6 +91,18 @@ def test_h_is_c1_across_the_piece_boundaries(h, x):
         np.testing.assert_allclose(h.gradient(lo), h.gradient(hi), rtol=1e-6, atol=1e-6)
 
 
+def test_value_and_factors_is_h_with_its_factors(h):
+    # h = O C + beta max(0, x - a2)^2 (SPEC), from one evaluation of the factors, on every
+    # piece: inside the sphere, the blend, the corridor beyond a2 and behind the target.
+    for position in ([30.0, 5.0, 2.0], [48.95, 3.0, -1.0], [49.5, 1.0, 2.0], [-20.0, 4.0, 1.0]):
+        p = np.array(position)
+        value, outer, inner = h.value_and_factors(p)
+        assert (float(outer), float(inner)) == tuple(float(f) for f in h.factors(p))
+        past = max(position[0] - h.a2, 0.0)
+        assert float(value) == float(h(p))
+        assert float(value) == pytest.approx(float(outer * inner) + h.beta * past**2, rel=1e-14)
+
+
 def test_inverse_gradient(h):
     p = np.array([5.0, 0.1, 0.0])
     np.testing.assert_allclose(h.inverse_gradient(p), -h.gradient(p) / float(h(p)) ** 2)

@@ -219,9 +219,8 @@ class SafeApproachSlidingMode(AbstractController):
         then traps the chaser on those planes (measured). The price: in front of the blend
         $\hat h$ overestimates the distance to the lip up to about 15 times, so the barrier
         acts later there."""
-        outer, inner = self.safety.factors(rho)
+        h, outer, inner = self.safety.value_and_factors(rho)
         x, r2 = rho[0], rho[1] ** 2 + rho[2] ** 2
-        h = self.safety(rho)
         slope = self.safety.corridor.slope(jnp.minimum(x, self.safety.a2))
         scale2 = (
             inner**2 * 4.0 * (rho @ rho) + outer**2 * (4.0 * r2 + slope**2) + (h / self.length) ** 2

@@ -214,9 +214,16 @@ class CollisionAvoidance(eqx.Module):
 
     def __call__(self, position: Float[ArrayLike, "3"]) -> Float[Array, ""]:
         """$h(P)$ [m$^4$] at one position (vmap for batches); $h > 0$ is safe."""
+        return self.value_and_factors(position)[0]
+
+    def value_and_factors(
+        self, position: Float[ArrayLike, "3"]
+    ) -> tuple[Float[Array, ""], Float[Array, ""], Float[Array, ""]]:
+        r"""$(h, O, C)$ at one position, the factors evaluated once (for callers that need
+        both, such as a normaliser of $h$)."""
         outer, inner = self.factors(position)
         past = jnp.maximum(jnp.asarray(position)[0] - self.a2, 0.0)
-        return outer * inner + self.beta * past**2
+        return outer * inner + self.beta * past**2, outer, inner
 
     def gradient(self, position: Float[ArrayLike, "3"]) -> Float[Array, "3"]:
         r"""$\nabla h$ [m$^3$] by autodiff."""
