@@ -77,8 +77,9 @@ _MAP_LIMIT = _memory_map_limit()
 
 @pytest.fixture(autouse=True)
 def _compiled_programs_stay_under_the_memory_map_limit():
-    """Every program XLA:CPU compiles holds memory mappings for its machine code (5-15 per
-    program; 1.6x more with XLA's default fusion emitters than with its IR emitters), and JAX
+    """Every program XLA:CPU compiles holds memory mappings for its machine code (about 5 for
+    a small program, more for a closed loop; for the programs of tests/simulation/test_simulate.py
+    1.6x more with XLA's default fusion emitters than with its IR emitters), and JAX
     keeps every compiled program for the life of the process. A pytest worker compiles about
     a thousand programs: one reached 43 000 mappings by the end of a CI-configured run. At the
     kernel's limit (vm.max_map_count, 65 530 by default) XLA's JIT fails to allocate ("LLVM
