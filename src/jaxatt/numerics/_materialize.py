@@ -45,8 +45,9 @@ def materialized(tree: PyTree, t: ArrayLike) -> PyTree:
     - the plain program at 300 samples: 1.07-1.14x faster;
     - the demo's 32-sample tuning gradient: 1.14x faster.
 
-    With today's default (no compiler option) the default call runs at 1.08-1.13x the hand
-    scan at 1000 samples and 1.18-1.22x at 10 000 ("The 512-bit default withdrawn").
+    With no compiler option (the default since 2026-12-03) the default call runs at
+    1.08-1.13x the hand scan at 1000 samples and 1.18-1.22x at 10 000 ("The 512-bit default
+    withdrawn").
 
     Materializing the sliding variable as well, or every RK4 stage's state or derivative, made
     the step slower: where to use it is measured, not guessed.
