@@ -13,7 +13,14 @@ from ._fractional import (
     memory_push as memory_push,
     riemann_liouville as riemann_liouville,
 )
-from ._linalg import det3 as det3, inv3 as inv3, solve3 as solve3, spectral_norm as spectral_norm
+from ._linalg import (
+    det3 as det3,
+    eigvalsh3 as eigvalsh3,
+    inv3 as inv3,
+    largest_eigenvalue3 as largest_eigenvalue3,
+    solve3 as solve3,
+    spectral_norm as spectral_norm,
+)
 from ._materialize import materialized as materialized
 from ._norm import safe_norm as safe_norm, safe_normalize as safe_normalize
 from ._power import abs_pow as abs_pow, sig_pow as sig_pow
