@@ -60,3 +60,22 @@ def test_the_printed_sign_breaks_the_reaching_dynamics(state):
     e2 = state.e2
     np.testing.assert_allclose(s_dot - expected, -2 * beta2 * e2 * rho_dot[6:] / rho[6:], rtol=1e-9)
     assert float(jnp.max(jnp.abs(s_dot - expected))) > 1e-4
+
+
+def test_robust_gain_is_the_norm_of_the_whole_6x6_whichever_block_dominates():
+    """The controller takes ||beta2 C^-1||_2 block by block (C^-1 = blkdiag(I/m, J^-1)); it
+    must equal the 6x6 norm (LAPACK) when either block is the larger, not only at the
+    scenario's mass and inertia (where the rotational block dominates)."""
+    from jaxatt.controllers._pose_sliding_mode import _block_diagonal_norm
+
+    rng = np.random.default_rng(5)
+    inertia = np.array([[14.0, 0.3, -0.2], [0.3, 15.0, 0.1], [-0.2, 0.1, 17.0]])
+    for mass in (100.0, 0.01):  # rotational block larger, translational block larger
+        c_inv = np.zeros((6, 6))
+        c_inv[:3, :3] = np.eye(3) / mass
+        c_inv[3:, 3:] = np.linalg.inv(inertia)
+        beta2 = rng.uniform(1.0, 3.0, size=6)
+        gain = beta2[:, None] * c_inv
+        np.testing.assert_allclose(
+            _block_diagonal_norm(jnp.asarray(gain)), np.linalg.norm(gain, 2), rtol=1e-13
+        )
