@@ -8,9 +8,12 @@ states, and the path of one array parameter. Each case must satisfy, on a short 
 - gradients are finite: of a scalar loss of the final state and the controls, with respect to
   every array of the closed loop (the library's safe primitives at singular points);
 - bad input raises before compiling: a NaN in the initial state is a `ValueError` naming it.
+
+And no library closed loop calls LAPACK in its step (checked on the lowered program).
 """
 
 import inspect
+import re
 
 import equinox as eqx
 import jax
@@ -399,3 +402,28 @@ def test_the_registry_covers_every_public_plant_controller_observer_and_actuator
     assert {MRPState, QuaternionState} <= {
         make_x0s().__class__ for _, make_x0s, _ in CASES.values()
     }
+
+
+def test_no_library_closed_loop_calls_lapack_in_its_step():
+    """XLA:CPU runs `jnp.linalg.solve`, `inv`, `eigvalsh`, `svd` as a LAPACK call per matrix:
+    per sample and stage in a batch, outside the fused elementwise code (a 6x6 `eigvalsh` made
+    Zhang 2021's Monte Carlo of 1000 samples 2.6-2.9x slower, two 3x3 `solve`s Wu 2018's 1.8x;
+    benchmarks/README.md). The library's closed loops use closed forms (`jaxatt.numerics`);
+    the stand-ins (test code) may do as they like. Lowered only, nothing compiled."""
+    calls = {}
+    for name, (make_loop, make_x0s, _) in CASES.items():
+        if name.startswith("stand-in"):
+            continue
+        loop, x0 = make_loop(), _index(make_x0s(), 0)
+        run = jax.jit(
+            lambda x, loop=loop: (
+                jaxatt.simulate(loop, x, 0.0, T1, dt=DT, solver=Euler(), throw=False).states
+            )
+        )
+        found = set(re.findall(r"custom_call @(\w*lapack\w*)", run.lower(x0).as_text()))
+        if found:
+            calls[name] = sorted(found)
+    assert calls == {}
+    # The check can fail: a LAPACK call in a step is seen.
+    solve = jax.jit(lambda a, b: jnp.linalg.solve(a, b)).lower(jnp.eye(3), jnp.ones(3))
+    assert re.search(r"custom_call @\w*lapack", solve.as_text())

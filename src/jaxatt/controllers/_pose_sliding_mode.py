@@ -32,7 +32,7 @@ def _block_diagonal_norm(gain: Float[Array, "6 6"]) -> Float[Array, ""]:
     of the exact norm next to a repeated singular value, $10^{-15}$ elsewhere). The 6x6
     eigenvalue problem it replaces ran as a LAPACK call per sample and RK4 stage on XLA:CPU:
     a default Monte Carlo of 1000 samples ran 2.6-2.9x slower with it
-    (benchmarks/README.md, "Zhang 2021: the robust gain in closed form")."""
+    (benchmarks/README.md, "No LAPACK call in the step")."""
     translational = jnp.max(jnp.abs(jnp.diagonal(gain)[:3]))
     rotational = gain[3:, 3:]
     largest = largest_eigenvalue3(rotational @ rotational.T)

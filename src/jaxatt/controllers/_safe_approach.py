@@ -52,7 +52,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from .._validation import check_nonnegative, check_positive, check_spd
-from ..numerics import safe_norm, sig_pow
+from ..numerics import safe_norm, sig_pow, solve3
 from ..plants import Proximity, ProximityState
 from ..references import PoseReference
 from ..rotations import mrp_from_quat, mrp_kinematics_matrix, skew
@@ -339,7 +339,7 @@ class SafeApproachSlidingMode(AbstractController):
         g_inv = g.T / (0.25 * (1.0 + sigma @ sigma)) ** 2
         tau_cmd = skew(att.omega) @ (inertia @ att.omega) + inertia @ (g_inv @ v_t)
         torque = jnp.clip(tau_cmd, -self.torque_limit, self.torque_limit)
-        delta_t = g @ jnp.linalg.solve(inertia, torque - tau_cmd)
+        delta_t = g @ solve3(inertia, torque - tau_cmd)
         rates = SafeApproachState(
             self._channel_rates(e1, s_f, delta_f, state.translation),
             self._channel_rates(a1, s_t, delta_t, state.attitude),

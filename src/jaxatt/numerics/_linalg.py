@@ -83,7 +83,7 @@ def largest_eigenvalue3(m: Float[ArrayLike, "3 3"]) -> Float[Array, ""]:
 
     About half the arithmetic of [`eigvalsh3`][] (no eigenvector): in Zhang 2021's pose
     controller 7.8 against 9.7 s of compile time at 16 samples and 2.27 against 3.29 us per
-    state-step at 1000 (benchmarks/README.md, "Zhang 2021: the robust gain in closed form").
+    state-step at 1000 (benchmarks/README.md, "No LAPACK call in the step").
     **Accuracy:** a few $\varepsilon\|M\|$, except next to a repeated largest eigenvalue,
     where it degrades towards $\sqrt{\varepsilon}\,\|M\|$ (measured: up to
     $5\times10^{-9}\|M\|$ for an exactly repeated one, against $10^{-15}$ elsewhere). For a

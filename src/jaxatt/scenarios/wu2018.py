@@ -154,7 +154,9 @@ class SafeApproachReference(AbstractReference):
 
     def omega_d(self, t):
         sigma, sigma_dot = jax.jvp(self.sigma_d, (t,), (jnp.ones_like(t),))
-        return jnp.linalg.solve(mrp_kinematics_matrix(sigma), sigma_dot)
+        # G^-1 = G^T / ((1 + |sigma|^2)/4)^2 (G G^T is that multiple of I): no LAPACK solve
+        g = mrp_kinematics_matrix(sigma)
+        return g.T @ sigma_dot / (0.25 * (1.0 + sigma @ sigma)) ** 2
 
     def init(self, t0):
         return None
