@@ -192,6 +192,11 @@ def _relative_orbit_cases():
             _six_dof_states,
             "controller.k3",
         ),
+        "6-DOF + terminal SMC with the known mass (Yue 2018 eq. 22)": (
+            lambda: yue2018.build(adaptive=False),
+            _six_dof_states,
+            "controller.force_bound",
+        ),
         "Tschauner-Hempel + fractional PD^alpha on a CW model (Zhang 2017 eq. 17)": (
             lambda: ClosedLoop(
                 TschaunerHempel(7e6, 0.2),

@@ -18,7 +18,7 @@ from .._validation import (
     check_nonnegative,
     check_positive,
 )
-from ..numerics import safe_norm, sat, sig_pow, sign
+from ..numerics import safe_norm, sat, sig_pow, sign, spectral_norm
 from ..plants import SixDofState
 from ..references import PoseReference
 from ..rotations import attitude_error_quat, quat_to_dcm, rate_error, skew
@@ -181,7 +181,7 @@ class AdaptiveTerminalSixDof(AbstractController):
             bracket = state.m_hat * speed + state.f_hat
         else:
             mu_matrix = -skew(y.omega) + jnp.diag(self.surface.gain(big_r) * jnp.ones(3))
-            bracket = jnp.linalg.norm(mu_matrix, 2) * self.mass * speed + self.force_bound
+            bracket = spectral_norm(mu_matrix) * self.mass * speed + self.force_bound
         r = self.surface.exponent
         force_n = -self.k3 * s1 - self.k4 * sig_pow(s1, r) - sat(s1, self.boundary) * bracket
         force = quat_to_dcm(y.q) @ force_n
