@@ -30,7 +30,7 @@ from jaxtyping import Array, ArrayLike, Float, PyTree
 
 from .._custom_types import Mat33, RealScalarLike, Vec3
 from .._validation import check_gain_shape, check_in_open_interval, check_positive, check_spd
-from ..numerics import solve3
+from ..numerics import inv3, solve3
 from ..plants import EulerAngleState
 from ..reaching import AbstractReachingLaw
 from ..references import EulerAngleCommand
@@ -45,9 +45,10 @@ def decoupling_matrix(
     cos_floor: RealScalarLike | None = None,
 ) -> Mat33:
     r"""$A(x) = R(\phi, \theta)J^{-1}$ [1/(kg m^2)] (`cos_floor` as in
-    [`jaxatt.rotations.euler321_kinematics_matrix`][])."""
+    [`jaxatt.rotations.euler321_kinematics_matrix`][]). $J^{-1}$ by the adjugate
+    ([`jaxatt.numerics.inv3`][]): no LAPACK call when used in a batched step."""
     rotation = euler321_kinematics_matrix(angles, cos_floor)
-    return jnp.linalg.solve(jnp.asarray(inertia).T, rotation.T).T
+    return rotation @ inv3(inertia)
 
 
 def decoupling_drift(
