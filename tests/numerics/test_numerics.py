@@ -260,8 +260,12 @@ def test_eigvalsh3_gradients_are_the_eigenvector_projections_and_finite_where_re
 
 
 def test_eigvalsh3_never_hides_nan():
-    from jaxatt.numerics import eigvalsh3, largest_eigenvalue3
+    from jaxatt.numerics import eigvalsh3, largest_eigenvalue3, spectral_norm
 
     m = jnp.diag(jnp.array([jnp.nan, 1.0, 2.0]))
     assert np.all(np.isnan(eigvalsh3(m)))
     assert np.isnan(largest_eigenvalue3(m))
+    # nor does the spectral norm built on them (Yue 2018's law (22) reads it; its former
+    # jnp.linalg.norm(M, 2) gave NaN too), in closed form and through LAPACK
+    assert np.isnan(spectral_norm(m))
+    assert np.isnan(spectral_norm(jnp.eye(6).at[0, 0].set(jnp.nan)))

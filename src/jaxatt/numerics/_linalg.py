@@ -178,9 +178,11 @@ def spectral_norm(a: Float[ArrayLike, "m n"]) -> Float[Array, ""]:
     **Gradient:** $u_1^\top\,dA\,v_1$ where $\sigma_{\max}$ is simple; finite at a repeated
     $\sigma_{\max}$ (up to 3x3 the mean of the repeated ones' derivatives, above that JAX's
     one-sided eigenvalue derivative). At $A = 0$ the gradient is 0 (guarded square root).
+    A NaN entry gives NaN.
     """
     a = jnp.asarray(a)
     gram = a.T @ a if a.shape[0] > a.shape[1] else a @ a.T
     largest = _largest_eigenvalue(gram)
     positive = largest > 0
-    return jnp.where(positive, jnp.sqrt(jnp.where(positive, largest, 1.0)), 0.0)
+    # 0 where the Gram matrix is 0 (or rounds below it); NaN stays NaN
+    return jnp.where(positive, jnp.sqrt(jnp.where(positive, largest, 1.0)), 0 * largest)
