@@ -39,11 +39,12 @@ _CACHE_OPTIONS = (
 
 
 @pytest.fixture(autouse=True)
-def _compilation_cache_stays_off():
-    """A test that turns JAX's persistent compilation cache on (a docs block calling
-    `jaxatt.enable_compilation_cache()`, the CLI's cache tests) turns it off again before the
-    next test: a worker left reading and writing a cache folder for the rest of the suite
-    crashed in XLA's executable deserialization (CI, stop 22)."""
+def _compilation_cache_options_restored():
+    """A test that changes JAX's persistent-compilation-cache options (a docs block calling
+    `jaxatt.enable_compilation_cache()`, the CLI's cache tests) has them put back before the
+    next test: off, or `.ci/run`'s shared folder for the run (docs/testing.md). A worker left
+    reading and writing a test's own folder for the rest of the suite once crashed in XLA's
+    executable deserialization (CI, stop 22)."""
     saved = {name: getattr(jax.config, name) for name in _CACHE_OPTIONS}
     yield
     if any(getattr(jax.config, name) != value for name, value in saved.items()):
