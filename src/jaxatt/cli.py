@@ -2,8 +2,10 @@
 
 Enables float64 before anything else (reproductions run in double precision) and the persistent
 compilation cache (a second run in a new process reuses the compiled programs; folder from
-`--cache-dir`, else `$JAXATT_CACHE_DIR`, else `~/.cache/jaxatt/xla`; `--no-cache` or
-`JAXATT_CACHE_DIR=off` turn it off), then dispatches to library functions. No numerics here.
+`--cache-dir`, else `$JAXATT_CACHE_DIR`, else `~/.cache/jaxatt/xla`; `JAXATT_CACHE_DIR=off`
+keeps jaxatt from turning it on, `--no-cache` turns every persistent cache off, even one that
+JAX's own `JAX_COMPILATION_CACHE_DIR` names), then dispatches to library functions. No numerics
+here.
 """
 
 import argparse
@@ -20,9 +22,15 @@ def _enable_x64() -> None:
 
 
 def _setup_cache(args: argparse.Namespace) -> None:
-    from ._compilation_cache import cache_disabled_by_env, enable_compilation_cache
+    from ._compilation_cache import (
+        cache_disabled_by_env,
+        disable_compilation_cache,
+        enable_compilation_cache,
+    )
 
     if getattr(args, "no_cache", False):
+        # An explicit request: no cache at all, including one enabled through JAX's variables.
+        disable_compilation_cache()
         return
     if getattr(args, "cache_dir", None) is None and cache_disabled_by_env():
         return
@@ -131,7 +139,10 @@ def build_parser() -> argparse.ArgumentParser:
     cache.add_argument(
         "--no-cache",
         action="store_true",
-        help="do not read or write the compilation cache (also: JAXATT_CACHE_DIR=off)",
+        help=(
+            "neither read nor write any persistent compilation cache, even one set by "
+            "JAX_COMPILATION_CACHE_DIR (JAXATT_CACHE_DIR=off only keeps jaxatt's own off)"
+        ),
     )
     demo = sub.add_parser(
         "demo",

@@ -168,6 +168,19 @@ def test_cli_turns_the_cache_on_where_asked_and_off_on_request(tmp_path, monkeyp
     assert setup(["demo", "--cache-dir", str(tmp_path / "a")]) == str(tmp_path / "a")
     assert (tmp_path / "a").is_dir()
     assert setup(["reproduce", "x", "--no-cache"]) is None
+    assert not jax.config.jax_enable_compilation_cache
+    # --no-cache also turns off a cache that JAX's own variables enabled
+    # (JAX_COMPILATION_CACHE_DIR, as .ci/run sets); JAXATT_CACHE_DIR=off leaves such a cache on.
+    jax.config.update("jax_enable_compilation_cache", True)
+    jax.config.update("jax_compilation_cache_dir", str(tmp_path / "jax"))
+    cli._setup_cache(cli.build_parser().parse_args(["demo", "--no-cache"]))
+    assert not jax.config.jax_enable_compilation_cache
+    jax.config.update("jax_enable_compilation_cache", True)
+    monkeypatch.setenv("JAXATT_CACHE_DIR", "off")
+    cli._setup_cache(cli.build_parser().parse_args(["demo"]))
+    assert jax.config.jax_enable_compilation_cache
+    assert jax.config.jax_compilation_cache_dir == str(tmp_path / "jax")
+    monkeypatch.delenv("JAXATT_CACHE_DIR")
     monkeypatch.setenv("JAXATT_CACHE_DIR", str(tmp_path / "env"))
     assert setup(["tune", "chen2022"]) == str(tmp_path / "env")
     monkeypatch.setenv("JAXATT_CACHE_DIR", "off")
