@@ -16,14 +16,12 @@ def skew(v: Float[ArrayLike, "3"]) -> Float[Array, "3 3"]:
     **Returns:** the skew-symmetric 3x3 matrix, same dtype as `v`.
     """
     v = jnp.asarray(v)
-    zero = jnp.zeros_like(v[0])
-    return jnp.stack(
-        [
-            jnp.stack([zero, -v[2], v[1]]),
-            jnp.stack([v[2], zero, -v[0]]),
-            jnp.stack([-v[1], v[0], zero]),
-        ]
-    )
+    # One concatenate of one-element slices: 10 jaxpr equations a call instead of 35 for nested
+    # stacks of indexed entries (the same values; smaller programs to trace and compile).
+    zero = jnp.zeros_like(v[:1])
+    v1, v2, v3 = v[0:1], v[1:2], v[2:3]
+    entries = [zero, -v3, v2, v3, zero, -v1, -v2, v1, zero]
+    return jnp.concatenate(entries).reshape(3, 3)
 
 
 def vee(m: Float[ArrayLike, "3 3"]) -> Float[Array, "3"]:
