@@ -3,10 +3,15 @@
 XLA:CPU lowers `jnp.linalg.solve` and `jnp.linalg.eigvalsh` on a batch of small matrices to a
 LAPACK custom call per matrix; the closed forms below are elementwise arithmetic that fuses with
 the rest of a vectorized closed loop (DESIGN.md, performance notes).
+
+`det3`, `solve3` and `inv3` are `jax.jit` functions: traced once per argument shape, with their
+derivative and batching rules cached, where inline code is traced again at each call site
+(docs/testing.md, "Where a test's time goes").
 """
 
 import math
 
+import jax
 import jax.numpy as jnp
 from jax import lax
 from jaxtyping import Array, ArrayLike, Float
@@ -20,12 +25,14 @@ def _adjugate3(a: Float[Array, "3 3"]) -> Float[Array, "3 3"]:
     return jnp.stack([jnp.cross(r1, r2), jnp.cross(r2, r0), jnp.cross(r0, r1)], axis=-1)
 
 
+@jax.jit
 def det3(a: Float[ArrayLike, "3 3"]) -> Float[Array, ""]:
     """Determinant of a 3x3 matrix (scalar triple product of its rows)."""
     a = jnp.asarray(a)
     return jnp.dot(a[0], jnp.cross(a[1], a[2]))
 
 
+@jax.jit
 def solve3(a: Float[ArrayLike, "3 3"], b: Float[ArrayLike, "3"]) -> Float[Array, "3"]:
     r"""Solve $a x = b$ (non-singular 3x3 `a`) by Cramer's rule, $x = \mathrm{adj}(a) b / \det a$.
 
@@ -38,6 +45,7 @@ def solve3(a: Float[ArrayLike, "3 3"], b: Float[ArrayLike, "3"]) -> Float[Array,
     return (_adjugate3(a) @ b) / det3(a)
 
 
+@jax.jit
 def inv3(a: Float[ArrayLike, "3 3"]) -> Float[Array, "3 3"]:
     """Inverse of a non-singular 3x3 matrix by the adjugate formula (see [`solve3`][])."""
     a = jnp.asarray(a)

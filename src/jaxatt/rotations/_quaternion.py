@@ -1,8 +1,14 @@
 """Scalar-first Hamilton unit quaternions: algebra, DCMs, axis-angle and kinematics.
 
 See the [`jaxatt.rotations`][] module docstring for the conventions (frames, DCM direction).
+
+The helpers a closed loop calls at every stage (`quat_multiply`, `quat_rotate`, `quat_to_dcm`,
+`quat_kinematics`) are `jax.jit` functions: traced once per argument shape, with their
+derivative and batching rules cached, where inline code is traced again at each call site
+(docs/testing.md, "Where a test's time goes").
 """
 
+import jax
 import jax.numpy as jnp
 from jax.typing import DTypeLike
 from jaxtyping import Array, ArrayLike, Float
@@ -12,6 +18,7 @@ from ..numerics import safe_norm, safe_normalize, sign
 from ._skew import skew
 
 
+@jax.jit
 def quat_multiply(p: Float[ArrayLike, "4"], q: Float[ArrayLike, "4"]) -> Float[Array, "4"]:
     r"""Hamilton product $p \otimes q$.
 
@@ -145,6 +152,7 @@ def quat_angle(q: Float[ArrayLike, "4"]) -> Float[Array, ""]:
     return 2 * jnp.where(zero, 0, half)
 
 
+@jax.jit
 def quat_rotate(q: Float[ArrayLike, "4"], v: Float[ArrayLike, "3"]) -> Float[Array, "3"]:
     r"""Vector part of $q \otimes [0, v] \otimes q^*$: body components to inertial components.
 
@@ -160,6 +168,7 @@ def quat_rotate(q: Float[ArrayLike, "4"], v: Float[ArrayLike, "3"]) -> Float[Arr
     return (q0 * q0 - jnp.dot(qv, qv)) * v + 2 * jnp.dot(qv, v) * qv + 2 * q0 * jnp.cross(qv, v)
 
 
+@jax.jit
 def quat_to_dcm(q: Float[ArrayLike, "4"]) -> Float[Array, "3 3"]:
     r"""Attitude matrix $C_{BN}$ (maps inertial components to body components).
 
@@ -220,6 +229,7 @@ def quat_kinematics_matrix(q: Float[ArrayLike, "4"]) -> Float[Array, "4 3"]:
     return jnp.concatenate([-qv[None, :], lower], axis=0)
 
 
+@jax.jit
 def quat_kinematics(q: Float[ArrayLike, "4"], omega: Float[ArrayLike, "3"]) -> Float[Array, "4"]:
     r"""Quaternion rate $\dot q = \tfrac12 E(q)\,\omega = \tfrac12\, q \otimes [0, \omega]$.
 

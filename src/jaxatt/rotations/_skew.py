@@ -1,9 +1,11 @@
 """The cross-product (skew-symmetric) matrix and its inverse."""
 
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 
+@jax.jit
 def skew(v: Float[ArrayLike, "3"]) -> Float[Array, "3 3"]:
     r"""Cross-product matrix $[v\times]$, so that $[v\times]\,w = v \times w$.
 
