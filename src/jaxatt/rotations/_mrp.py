@@ -3,9 +3,9 @@ r"""Modified Rodrigues parameters $\sigma = \hat n \tan(\phi/4)$: maps, DCM, sha
 See the [`jaxatt.rotations`][] module docstring for the conventions.
 
 The helpers a closed loop calls at every stage (`mrp_to_dcm`, `mrp_kinematics_matrix`,
-`mrp_kinematics`, and `skew`) are `jax.jit` functions: traced once per argument shape, with
-their derivative and batching rules cached, where inline code is traced again at each call
-site (docs/testing.md, "Where a test's time goes").
+`mrp_kinematics`) are `jax.jit` functions: traced once per argument shape, with their
+derivative and batching rules cached, where inline code is traced again at each call site
+(docs/testing.md, "Where a test's time goes").
 """
 
 import jax

@@ -1,4 +1,8 @@
-"""The cross-product (skew-symmetric) matrix and its inverse."""
+"""The cross-product (skew-symmetric) matrix and its inverse.
+
+`skew` is a `jax.jit` function, like the other per-stage rotation helpers (see
+`jaxatt/rotations/_mrp.py`): traced once per argument shape, not at every call site.
+"""
 
 import jax
 import jax.numpy as jnp
