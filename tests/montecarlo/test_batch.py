@@ -29,7 +29,14 @@ from jaxatt.metrics import (
 from jaxatt.numerics import safe_norm
 from jaxatt.plants import MRPState, QuaternionState
 from jaxatt.scenarios import chen2022_two_phase_power as chen
-from jaxatt.simulation import SCALARIZE_FROM, Euler, Performance, Status, samples_at_once
+from jaxatt.simulation import (
+    SCALARIZE_FROM,
+    SCALARIZED_VECTOR_WIDTH,
+    Euler,
+    Performance,
+    Status,
+    samples_at_once,
+)
 
 from ..helpers import mrp_pd_loop
 
@@ -129,8 +136,8 @@ def test_streamed_default_equals_the_saved_trajectory_reduction(chen_batch):
     ok = np.asarray(saved.successful)
     performances = (
         Performance(scalarize=False),
-        Performance(scalarize=True),  # no compiler option: XLA's defaults
-        Performance(scalarize=True, vector_width=512),  # the opt-in wide vectors
+        Performance(scalarize=True),  # compiled for 512-bit vectors on CPU (the default)
+        Performance(scalarize=True, vector_width=256),  # XLA's own width
     )
     for performance in performances:
         streamed = mc.monte_carlo(
@@ -173,10 +180,9 @@ def test_default_scalarization_rule():
 def test_vector_width_option():
     option = "xla_cpu_prefer_vector_width"
     auto = Performance()
-    # No option unless asked: with 512 the default for scalarized loops, 3 of 4 test-suite
-    # runs under XLA's default code generator crashed in XLA (Performance's docstring).
-    assert auto.resolve(1000, "cpu").compiler_options("cpu") == {}  # scalarized
-    assert auto.resolve(999, "cpu").compiler_options("cpu") == {}  # plain
+    assert SCALARIZED_VECTOR_WIDTH == 512
+    assert auto.resolve(1000, "cpu").compiler_options("cpu") == {option: 512}  # scalarized
+    assert auto.resolve(999, "cpu").compiler_options("cpu") == {}  # plain: XLA's default
     assert Performance(vector_width=512).resolve(1000, "cpu").compiler_options("cpu") == {
         option: 512
     }

@@ -38,16 +38,17 @@ def materialized(tree: PyTree, t: ArrayLike) -> PyTree:
     2.5e-14 relative and metrics by 5e-16.
 
     **Measured** (`SlidingModeTracking` materializes its tracking errors; Chen 2022 M1,
-    float64, 2-core AVX-512 CPU, with the 512-bit vectors that were then the default;
+    float64, 2-core AVX-512 CPU, with the 512-bit vectors of the scalarized loop's default;
     benchmarks/README.md, "Materialized tracking errors"):
     - the default Monte Carlo call: 1.16-1.20x the hand scan at 1000 samples (0.97-1.00x
       before) and 1.34-1.37x at 10 000 (1.28-1.29x);
     - the plain program at 300 samples: 1.07-1.14x faster;
     - the demo's 32-sample tuning gradient: 1.14x faster.
 
-    With no compiler option (the default since 2026-12-03) the default call runs at
+    With no compiler option (the default from 2026-12-03 to 2026-12-04) the default call ran at
     1.08-1.13x the hand scan at 1000 samples and 1.18-1.22x at 10 000 ("The 512-bit default
-    withdrawn").
+    withdrawn"); with the 512-bit default restored, 1.29x and 1.34x ("The 512-bit default
+    restored").
 
     Materializing the sliding variable as well, or every RK4 stage's state or derivative, made
     the step slower: where to use it is measured, not guessed.

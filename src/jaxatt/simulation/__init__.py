@@ -23,6 +23,7 @@ from ._loop import (
 )
 from ._performance import (
     SCALARIZE_FROM as SCALARIZE_FROM,
+    SCALARIZED_VECTOR_WIDTH as SCALARIZED_VECTOR_WIDTH,
     Performance as Performance,
     samples_at_once as samples_at_once,
 )

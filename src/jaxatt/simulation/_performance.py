@@ -24,6 +24,10 @@ at once (per device, or per `lax.map` chunk) are scalarized on CPU backends."""
 VECTOR_WIDTHS = (128, 256, 512)
 """Accepted values of `Performance(vector_width=...)` [bits]."""
 
+SCALARIZED_VECTOR_WIDTH = 512
+"""With `Performance(vector_width=None)` (the default), the SIMD width [bits] XLA:CPU is asked
+to prefer for a scalarized loop."""
+
 
 def _check_size(name: str, value) -> int:
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
@@ -56,22 +60,22 @@ class Performance(eqx.Module):
       loop's code (XLA's `xla_cpu_prefer_vector_width` compiler option, passed to the `jax.jit`
       of the program [`simulate`][jaxatt.simulate] or
       [`monte_carlo`][jaxatt.montecarlo.monte_carlo] compiles): 128, 256 or 512, or `None`
-      (default): no option, XLA's own choice (256). A scalarized batch is elementwise code on
-      `(batch,)` arrays, which fills 512-bit registers: on this project's 2-core AVX-512 Xeon,
-      Chen's M1 Monte Carlo (default call, float64, 1 s) ran 1.09-1.14x faster at 1000 samples
-      and 1.23x at 3000 with `vector_width=512` (benchmarks/README.md, "512-bit vectors"), and
-      1.04-1.10x at 1000-10 000 (set for the whole process through `XLA_FLAGS`) once the
-      tracking errors were materialized; the plain program (300 samples), a single trajectory
-      and a tuning gradient did not change (within 1 %). On a CPU without AVX-512 the option
-      changes nothing (measured with XLA's `--xla_cpu_max_isa=AVX2`). The default metrics and
-      final states of 1000 samples over 2 s were bit for bit the same with 256 and 512. CPU
-      only: ignored on other backends. Applies where jaxatt compiles the program; inside your
-      own `jax.jit`, pass [`compiler_options`][jaxatt.simulation.Performance.compiler_options]
-      to it. Opt-in: it was the default for scalarized loops for a day and was withdrawn
-      after test processes crashed in XLA; the crashes turned out to be processes that had
-      compiled about a thousand programs running out of memory mappings (Linux's
-      `vm.max_map_count`), with or without the option (docs/performance.md, "Long processes
-      and the memory-map limit"). It has not been made the default again.
+      (default): [`SCALARIZED_VECTOR_WIDTH`][] = 512 for a scalarized loop, no option (XLA's
+      own choice, 256) otherwise. A scalarized batch is elementwise code on `(batch,)`
+      arrays, which fills 512-bit registers: on this project's 2-core AVX-512 Xeon, Chen's M1
+      Monte Carlo (default call, float64, 1 s, round robin in one process, 2026-12-04) ran
+      1.13x, 1.07x and 1.09x faster at 1000, 3000 and 10 000 samples with 512 than without
+      (benchmarks/README.md, "The 512-bit default restored"); the plain program, a single
+      trajectory and a tuning gradient did not change (within 1 %, 2026-12-03). On a CPU
+      without AVX-512 the option changes nothing (measured with XLA's
+      `--xla_cpu_max_isa=AVX2`). The metrics agree to an ulp (3e-16 relative; 12 of 3000
+      samples differ at all). CPU only: ignored on other backends. Applies where jaxatt
+      compiles the program; inside your own `jax.jit`, pass
+      [`compiler_options`][jaxatt.simulation.Performance.compiler_options] to it. It was
+      withdrawn as the default for a day after test processes crashed in XLA; the crashes
+      turned out to be processes that had compiled about a thousand programs running out of
+      memory mappings (Linux's `vm.max_map_count`), with or without the option
+      (docs/performance.md, "Long processes and the memory-map limit").
 
     Forward- and reverse-mode derivatives of a scalarized loop go through the ordinary
     program (same values), so tuning can use the option a Monte Carlo study used.
@@ -121,6 +125,8 @@ class Performance(eqx.Module):
         if backend != "cpu":
             return {}
         width = self.vector_width
+        if width is None and self.scalarize:
+            width = SCALARIZED_VECTOR_WIDTH
         return {} if width is None else {"xla_cpu_prefer_vector_width": width}
 
 
