@@ -69,12 +69,12 @@ class Performance(eqx.Module):
       trajectory and a tuning gradient did not change (within 1 %, 2026-12-03). On a CPU
       without AVX-512 the option changes nothing (measured with XLA's
       `--xla_cpu_max_isa=AVX2`). The metrics agree to an ulp (bit for bit at 1000 samples;
-      at 3000, 12 metric values differ, by at most 3.1e-16 relative). CPU only: ignored on other backends. Applies where jaxatt
-      compiles the program; inside your own `jax.jit`, pass
-      [`compiler_options`][jaxatt.simulation.Performance.compiler_options] to it. It was
-      withdrawn as the default for a day after test processes crashed in XLA; the crashes
-      turned out to be processes that had compiled about a thousand programs running out of
-      memory mappings (Linux's `vm.max_map_count`), with or without the option
+      at 3000, 12 metric values differ, by at most 3.1e-16 relative). CPU only: ignored on
+      other backends. Applies where jaxatt compiles the program; inside your own `jax.jit`,
+      pass [`compiler_options`][jaxatt.simulation.Performance.compiler_options] to it. It
+      was withdrawn as the default for a day after test processes crashed in XLA; the
+      crashes turned out to be processes that had compiled about a thousand programs running
+      out of memory mappings (Linux's `vm.max_map_count`), with or without the option
       (docs/performance.md, "Long processes and the memory-map limit").
 
     Forward- and reverse-mode derivatives of a scalarized loop go through the ordinary
