@@ -119,8 +119,25 @@ FIRST_MODULES = (  # longest first
 JOIN_UNIT_OF = {"tests/scenarios/test_chen2022.py": "tests/test_cli.py"}
 
 
+def pytest_addoption(parser):
+    parser.addoption(
+        "--full-notebooks",
+        action="store_true",
+        help="run only the notebooks in full mode (JAXATT_SHORT=0): every number their text "
+        "states is asserted there (about 8 minutes for all of them on 2 cores; not in CI)",
+    )
+
+
 def pytest_collection_modifyitems(config, items):
-    """Collection order is the order work is handed out: `FIRST_MODULES` first."""
+    """Collection order is the order work is handed out: `FIRST_MODULES` first. Tests marked
+    `full_notebooks` run with `--full-notebooks` and then alone; without it they are
+    deselected (reported as such, never skipped)."""
+    full = config.getoption("--full-notebooks")
+    keep = [item for item in items if bool(item.get_closest_marker("full_notebooks")) == full]
+    dropped = [item for item in items if item not in keep]
+    if dropped:
+        config.hook.pytest_deselected(items=dropped)
+        items[:] = keep
 
     def rank(item) -> int:
         module = item.nodeid.split("::")[0]

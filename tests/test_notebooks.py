@@ -1,4 +1,6 @@
-"""Execute every notebook in short mode (JAXATT_SHORT=1): they are documentation that must run."""
+"""Execute every notebook: in short mode (JAXATT_SHORT=1) in the suite, where they are
+documentation that must run; in full mode (JAXATT_SHORT=0) with `pytest --full-notebooks`, where
+each asserts the numbers its text states (docs/testing.md)."""
 
 import os
 import pathlib
@@ -11,13 +13,11 @@ from nbclient import NotebookClient
 NOTEBOOKS = sorted((pathlib.Path(__file__).parents[1] / "notebooks").glob("*.ipynb"))
 
 
-@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
-def test_notebook_runs_in_short_mode(path, tmp_path, monkeypatch):
-    monkeypatch.setenv("JAXATT_SHORT", "1")
+def _execute(path: pathlib.Path, short: bool, timeout: int, monkeypatch) -> None:
+    monkeypatch.setenv("JAXATT_SHORT", "1" if short else "0")
     monkeypatch.setenv("MPLBACKEND", "Agg")
-    monkeypatch.chdir(tmp_path)  # anything a notebook writes lands in a temporary folder
     nb = nbformat.read(path, as_version=4)
-    client = NotebookClient(nb, timeout=600, kernel_name="python3")
+    client = NotebookClient(nb, timeout=timeout, kernel_name="python3")
     client.execute()  # raises CellExecutionError with the failing cell's traceback
     errors = [
         out
@@ -27,6 +27,19 @@ def test_notebook_runs_in_short_mode(path, tmp_path, monkeypatch):
         if out.get("output_type") == "error"
     ]
     assert not errors
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
+def test_notebook_runs_in_short_mode(path, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # anything a notebook writes lands in a temporary folder
+    _execute(path, short=True, timeout=600, monkeypatch=monkeypatch)
+
+
+@pytest.mark.full_notebooks
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
+def test_notebook_states_its_full_mode_numbers(path, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    _execute(path, short=False, timeout=1800, monkeypatch=monkeypatch)
 
 
 def test_there_are_notebooks():
