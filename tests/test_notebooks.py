@@ -13,9 +13,10 @@ from nbclient import NotebookClient
 NOTEBOOKS = sorted((pathlib.Path(__file__).parents[1] / "notebooks").glob("*.ipynb"))
 
 
-def _execute(path: pathlib.Path, short: bool, timeout: int, monkeypatch) -> None:
+def _execute(path: pathlib.Path, tmp_path, monkeypatch, *, short: bool, timeout: int) -> None:
     monkeypatch.setenv("JAXATT_SHORT", "1" if short else "0")
     monkeypatch.setenv("MPLBACKEND", "Agg")
+    monkeypatch.chdir(tmp_path)  # anything a notebook writes lands in a temporary folder
     nb = nbformat.read(path, as_version=4)
     client = NotebookClient(nb, timeout=timeout, kernel_name="python3")
     client.execute()  # raises CellExecutionError with the failing cell's traceback
@@ -31,15 +32,13 @@ def _execute(path: pathlib.Path, short: bool, timeout: int, monkeypatch) -> None
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
 def test_notebook_runs_in_short_mode(path, tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)  # anything a notebook writes lands in a temporary folder
-    _execute(path, short=True, timeout=600, monkeypatch=monkeypatch)
+    _execute(path, tmp_path, monkeypatch, short=True, timeout=600)
 
 
 @pytest.mark.full_notebooks
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
 def test_notebook_states_its_full_mode_numbers(path, tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    _execute(path, short=False, timeout=1800, monkeypatch=monkeypatch)
+    _execute(path, tmp_path, monkeypatch, short=False, timeout=1800)
 
 
 def test_there_are_notebooks():
