@@ -1,8 +1,10 @@
-"""Forward-mode sensitivities and nested checkpointing give reverse mode's gradient.
+"""Forward-mode sensitivities, nested and recursive checkpointing give reverse mode's gradient.
 
 One small problem (a rigid body under MRP PD, two gains, 2 s of Euler steps of 1e-2 s, saved
-every 5 steps, 3 initial states), compiled three ways: reverse mode with one checkpoint per save
-interval (the default), reverse mode with nested checkpoints, forward mode (`jax.jacfwd`).
+every 5 steps, 3 initial states), compiled four ways: reverse mode with one checkpoint per save
+interval (the default), reverse mode with nested checkpoints, reverse mode through equinox's
+checkpointed scan with 3 stored loop states (`checkpoint="recursive"`), forward mode
+(`jax.jacfwd`).
 """
 
 import jax.numpy as jnp
@@ -24,7 +26,7 @@ PARAMS = {
 }
 
 
-def _problem(checkpoint=True):
+def _problem(checkpoint=True, checkpoints=None):
     loop = ClosedLoop(RigidBodyMRP(J), MRPPD(6.0, 5.0))
     x0s = MRPState(
         jnp.array([[0.1, -0.2, 0.3], [0.3, 0.1, -0.2], [-0.2, 0.2, 0.1]]),
@@ -33,7 +35,13 @@ def _problem(checkpoint=True):
     # One time metric (the settling objective's convergence time), Euler steps: small programs.
     times = {"t": ConvergenceTime("attitude_error_vector", 1e-3)}
     objective = tune.MetricObjective(
-        2.0, 1e-2, times, save_every=5, solver=Euler(), checkpoint=checkpoint
+        2.0,
+        1e-2,
+        times,
+        save_every=5,
+        solver=Euler(),
+        checkpoint=checkpoint,
+        checkpoints=checkpoints,
     )
     return loop, x0s, objective, tune.initial_unconstrained(loop, PARAMS)
 
@@ -41,12 +49,13 @@ def _problem(checkpoint=True):
 @pytest.fixture(scope="module")
 def gradients():
     out = {}
-    for name, mode, checkpoint in (
-        ("reverse", "reverse", True),
-        ("nested", "reverse", "nested"),
-        ("forward", "forward", True),
+    for name, mode, checkpoint, checkpoints in (
+        ("reverse", "reverse", True, None),
+        ("nested", "reverse", "nested", None),
+        ("recursive", "reverse", "recursive", 3),  # 40 save intervals: many recomputed
+        ("forward", "forward", True, None),
     ):
-        loop, x0s, objective, u = _problem(checkpoint)
+        loop, x0s, objective, u = _problem(checkpoint, checkpoints)
         (loss, aux), grads = tune.loss_and_grad(u, loop, PARAMS, objective, x0s, mode=mode)
         out[name] = (float(loss), {k: float(v) for k, v in grads.items()}, aux)
     return out
@@ -74,6 +83,13 @@ def test_nested_checkpoints_give_the_same_loss_and_gradient(gradients):
     assert _relative(grad_n, grad_r) <= 1e-12
 
 
+def test_recursive_checkpoints_give_the_same_loss_and_gradient(gradients):
+    loss_r, grad_r, _ = gradients["reverse"]
+    loss_c, grad_c, _ = gradients["recursive"]
+    assert loss_c == loss_r  # the same forward computation
+    assert _relative(grad_c, grad_r) <= 1e-12
+
+
 def test_tune_in_forward_mode_follows_the_reverse_mode_path():
     # Reuses the programs compiled by the fixture (same arguments).
     loop, x0s, objective, _ = _problem()
@@ -93,6 +109,15 @@ def test_block_sizes_and_bad_options():
     assert [block_size(n) for n in (1, 2, 4, 7, 12, 40, 3000)] == [1, 2, 2, 1, 4, 5, 50]
     with pytest.raises(ValueError, match="checkpoint"):
         Simulation(0.0, 1.0, 0.1, checkpoint="treeverse")
+    with pytest.raises(ValueError, match="`checkpoints` applies to checkpoint='recursive'"):
+        Simulation(0.0, 1.0, 0.1, checkpoints=4)
+    for bad in (0, -3, True):
+        with pytest.raises(ValueError, match="`checkpoints` must be a positive integer"):
+            Simulation(0.0, 1.0, 0.1, checkpoint="recursive", checkpoints=bad)
+    # equinox's checkpointed scan has no forward-mode rule: refused before compiling.
+    loop, x0s, objective, u = _problem("recursive")
+    with pytest.raises(ValueError, match="mode='forward' cannot differentiate"):
+        tune.loss_and_grad(u, loop, PARAMS, objective, x0s, mode="forward")
     loop, x0s, objective, u = _problem()
     with pytest.raises(ValueError, match="mode"):
         tune.loss_and_grad(u, loop, PARAMS, objective, x0s, mode="jvp")

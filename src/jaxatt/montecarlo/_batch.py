@@ -3,9 +3,10 @@
 `run_batch` is what every batched simulation in jaxatt runs: `monte_carlo`, the tuning
 objectives, the scenarios' batched reproductions and the benchmarks. A tuning objective and a
 Monte Carlo study with the same settings therefore run (and differentiate) the same time loop.
-`monte_carlo` streams its metrics by default (`stream=True`: reduced inside the loop, nothing
-saved); the tuning objectives reduce a saved trajectory (`stream=False`); both give the same
-values.
+`monte_carlo` and the tuning objectives stream their metrics when every metric object can
+(`stream=True`: reduced inside the loop, nothing saved); a metric function, or
+`keep_trajectories=True`, reduces a saved trajectory instead (`stream=False`); both give the
+same values.
 """
 
 import numbers

@@ -17,6 +17,7 @@ import abc
 import math
 
 import equinox as eqx
+import equinox.internal as eqxi
 import jax
 import jax.lax as lax
 import jax.numpy as jnp
@@ -63,6 +64,25 @@ def _nested_scan(body, carry, n: int):
 
     carry, out = lax.scan(block, carry, jnp.arange(n // size))
     return carry, jtu.tree_map(lambda x: x.reshape(n, *x.shape[2:]), out)
+
+
+def _scan_intervals(body, carry, n: int, sim: Simulation):
+    """`lax.scan(body, carry, jnp.arange(n))` over the save intervals, stored for reverse mode
+    as `sim.checkpoint` says: each interval under `jax.checkpoint` (`True`), in blocks as well
+    (`"nested"`, [`_nested_scan`][]), with equinox's online treeverse (`"recursive"`,
+    `equinox.internal.scan(kind="checkpointed")`: at most `sim.checkpoints` stored loop
+    states), or not at all (`False`)."""
+    if sim.checkpoint == "recursive":
+        # The treeverse recomputes an interval from its stored start and differentiates that
+        # one call: a `jax.checkpoint` inside would recompute it a second time.
+        return eqxi.scan(
+            body, carry, jnp.arange(n), kind="checkpointed", checkpoints=sim.checkpoints
+        )
+    if sim.checkpoint:
+        body = jax.checkpoint(body)
+    if sim.checkpoint == "nested":
+        return _nested_scan(body, carry, n)
+    return lax.scan(body, carry, jnp.arange(n))
 
 
 class Streamed(eqx.Module):
@@ -203,14 +223,8 @@ def _run(closed_loop, x0, sim, stream):
             )
         return flat, (y, closed_loop.signals(t_end, y_signals, held))
 
-    if sim.checkpoint:
-        save_interval = jax.checkpoint(save_interval)
-
     n_intervals = sim.n_steps // every
-    if sim.checkpoint == "nested":
-        flat, (ys, signals) = _nested_scan(save_interval, flat0, n_intervals)
-    else:
-        flat, (ys, signals) = lax.scan(save_interval, flat0, jnp.arange(n_intervals))
+    flat, (ys, signals) = _scan_intervals(save_interval, flat0, n_intervals, sim)
     *_, status, failure_time, events = unflatten(flat)
     signals0 = closed_loop.signals(time(0), y0, held0)
 
@@ -286,10 +300,23 @@ def _run_streaming(closed_loop, sim, stream, one_step, sample, time, carry0) -> 
         flat, _ = lax.scan(step, flat, j * every + jnp.arange(every))
         return flat, None
 
-    if sim.checkpoint:
-        interval = jax.checkpoint(interval)
+    if every > 1 and not sim.performance.scalarize:
+        # One observation per save interval, before its steps: no `lax.cond` in the step
+        # (a smaller program to compile and differentiate; the same values).
+        def step(carry, i):
+            inner, state = carry
+            return (one_step(closed_loop, inner, i), state), None
 
-    flat, _ = lax.scan(interval, flat0, jnp.arange(sim.n_steps // every))
+        def interval(flat, j):
+            inner, state = flat
+            i = j * every
+            y, held, pending = inner[:3]
+            new = stream.update(state, time(i), observed(closed_loop, y, held, pending, time(i), i))
+            state = jtu.tree_map(lambda a, b: jnp.where(j > 0, a, b), new, state)
+            flat, _ = lax.scan(step, (inner, state), i + jnp.arange(every))
+            return flat, None
+
+    flat, _ = _scan_intervals(interval, flat0, sim.n_steps // every, sim)
     inner, state = unflatten(flat)
     y, held, pending, _, status, failure_time, events = inner
     signals = observed(closed_loop, y, held, pending, t_last, sim.n_steps)

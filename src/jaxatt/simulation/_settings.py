@@ -51,8 +51,18 @@ class Simulation(eqx.Module):
       steps inside an interval are recomputed); `"nested"` also groups the $N$ save intervals
       in blocks of about $\sqrt N$ and stores only each block's initial state (a second level
       of `jax.checkpoint`: about $2\sqrt N$ stored loop states instead of $N$, for one more
-      forward pass in the backward sweep); `False` stores every step's residuals.
-      Values that the run returns (the saved trajectory) are stored in every case.
+      forward pass in the backward sweep); `"recursive"` runs the save intervals through
+      equinox's checkpointed scan (`equinox.internal.scan(kind="checkpointed")`, the online
+      treeverse of diffrax's `RecursiveCheckpointAdjoint`), which stores at most `checkpoints`
+      loop states whatever the horizon and recomputes intervals as often as that budget
+      requires (reverse mode only: `jax.jvp`/`jax.jacfwd` through it raise); `False` stores
+      every step's residuals. Values that the run returns (the saved trajectory) are stored
+      in every case; a streamed run (the Monte Carlo metrics, the tuning objectives) returns
+      no trajectory, so with `"recursive"` its gradient's memory does not grow with the
+      horizon.
+    - `checkpoints`: with `checkpoint="recursive"`, the number of stored loop states
+      (a positive integer); `None` (default) lets equinox choose (about $\sqrt N$ for $N$
+      save intervals). Not allowed with the other `checkpoint` settings.
     - `performance`: a [`Performance`][] (how the loop is compiled; never what it computes).
     - `where`: the name used in error messages (the public function building it).
     """
@@ -64,6 +74,7 @@ class Simulation(eqx.Module):
     solver: AbstractFixedStepSolver
     save_every: int = eqx.field(static=True)
     checkpoint: bool | str = eqx.field(static=True)
+    checkpoints: int | None = eqx.field(static=True)
     performance: Performance
     n_steps: int = eqx.field(static=True)
     steps_per_sample: int = eqx.field(static=True)
@@ -78,6 +89,7 @@ class Simulation(eqx.Module):
         solver: AbstractFixedStepSolver | dfx.AbstractSolver = RK4(),
         save_every: int = 1,
         checkpoint: bool | str = True,
+        checkpoints: int | None = None,
         performance: Performance | None = None,
         where: str = "simulate",
     ):
@@ -112,11 +124,24 @@ class Simulation(eqx.Module):
         self.sampling = sampling
         self.steps_per_sample = sampling.steps_per_sample(self.dt)
         self.solver = as_fixed_step_solver(solver, where)
-        if checkpoint not in (True, False, "nested"):
+        if isinstance(checkpoint, str):
+            valid = checkpoint in ("nested", "recursive")
+        else:
+            valid = checkpoint in (True, False)
+        if not valid:
             raise ValueError(
-                f"{where}: `checkpoint` must be True, False or 'nested', got {checkpoint!r}."
+                f"{where}: `checkpoint` must be True, False, 'nested' or 'recursive', got "
+                f"{checkpoint!r}."
             )
-        self.checkpoint = checkpoint if checkpoint == "nested" else bool(checkpoint)
+        self.checkpoint = checkpoint if isinstance(checkpoint, str) else bool(checkpoint)
+        if checkpoints is not None:
+            if self.checkpoint != "recursive":
+                raise ValueError(
+                    f"{where}: `checkpoints` applies to checkpoint='recursive' only, got "
+                    f"checkpoints={checkpoints!r} with checkpoint={checkpoint!r}."
+                )
+            checkpoints = _check_positive_int(where, "checkpoints", checkpoints)
+        self.checkpoints = checkpoints
         if performance is None:
             performance = Performance()
         if not isinstance(performance, Performance):
@@ -136,6 +161,7 @@ class Simulation(eqx.Module):
             solver=self.solver,
             save_every=self.save_every,
             checkpoint=self.checkpoint,
+            checkpoints=self.checkpoints,
             performance=performance,
         )
 

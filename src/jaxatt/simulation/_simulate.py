@@ -61,6 +61,7 @@ def simulate(
     solver: AbstractFixedStepSolver | dfx.AbstractSolver = RK4(),
     save_every: int = 1,
     checkpoint: bool | str = True,
+    checkpoints: int | None = None,
     throw: bool = True,
     performance: Performance | None = None,
 ) -> Trajectory:
@@ -82,7 +83,10 @@ def simulate(
     - `checkpoint`: rematerialize each save interval in reverse-mode autodiff, so gradient
       memory grows with the number of saves rather than of steps; `"nested"` adds a second
       level (blocks of about $\sqrt N$ of the $N$ save intervals), so that about $2\sqrt N$
-      loop states are stored instead of $N$ (see [`Simulation`][]). No effect without `grad`.
+      loop states are stored instead of $N$; `"recursive"` runs equinox's checkpointed scan
+      (online treeverse), which stores at most `checkpoints` loop states whatever the horizon
+      (reverse mode only; see [`Simulation`][]). No effect without `grad`. The saved
+      trajectory itself is always stored.
     - `throw`: raise [`SimulationFailed`][] if the run fails (a non-finite state, an invalid
       plant, a constraint violation), after the compiled program has returned. Use
       `throw=False` for batches: failures are then reported per sample in
@@ -109,6 +113,7 @@ def simulate(
         solver=solver,
         save_every=save_every,
         checkpoint=checkpoint,
+        checkpoints=checkpoints,
         performance=performance,
         where="simulate",
     )

@@ -83,9 +83,16 @@ MODES = ("reverse", "forward")
 """Differentiation modes of [`loss_and_grad`][] and [`tune`][]."""
 
 
-def _check_mode(mode) -> str:
+def _check_mode(mode, objective) -> str:
     if mode not in MODES:
         raise ValueError(f"tune: `mode` must be 'reverse' or 'forward', got mode={mode!r}.")
+    simulation = getattr(objective, "simulation", None)
+    if mode == "forward" and getattr(simulation, "checkpoint", None) == "recursive":
+        raise ValueError(
+            "tune: mode='forward' cannot differentiate an objective with "
+            "checkpoint='recursive' (equinox's checkpointed scan is reverse-mode only); "
+            "forward mode stores no residuals, so build the objective with checkpoint=True."
+        )
     return mode
 
 
@@ -112,7 +119,7 @@ def loss_and_grad(
     propagation: no stored residuals, cost linear in the number of scalar gains). Both give
     the same gradient to rounding.
     """
-    _check_mode(mode)
+    _check_mode(mode, objective)
     check_parameters(template, parameters)
     _check_inputs(objective, template, inputs)
     step = _loss_and_grad if mode == "reverse" else _loss_and_grad_forward
@@ -235,7 +242,7 @@ def tune(
         raise ValueError("tune: `resume=True` needs a `checkpoint` path.")
     if on_nonfinite not in ("raise", "stop"):
         raise ValueError(f"tune: `on_nonfinite` must be 'raise' or 'stop', got {on_nonfinite!r}.")
-    _check_mode(mode)
+    _check_mode(mode, objective)
     check_parameters(template, parameters)
     _check_inputs(objective, template, inputs)
     step = _loss_and_grad if mode == "reverse" else _loss_and_grad_forward

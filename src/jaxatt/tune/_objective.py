@@ -43,7 +43,7 @@ from ..metrics import (
     Peak,
     SettlingTime,
 )
-from ..montecarlo import run_batch
+from ..montecarlo import run_batch, streamable
 from ..simulation import (
     RK4,
     AbstractClosedLoop,
@@ -178,8 +178,11 @@ class SettlingObjective(AbstractObjective):
       of the horizon).
     - `save_every`, `sampling`, `solver`, `performance`, `t0`: as
       [`jaxatt.montecarlo.monte_carlo`][] (the crossing is interpolated between saves).
-    - `checkpoint`: how reverse mode stores the loop, as [`jaxatt.simulate`][]'s (`True`,
-      `"nested"` for about $2\\sqrt N$ stored loop states over $N$ saves, `False`).
+    - `checkpoint`, `checkpoints`: how reverse mode stores the loop, as
+      [`jaxatt.simulation.Simulation`][]'s (`True`, `"nested"` for about $2\\sqrt N$ stored
+      loop states over $N$ saves, `"recursive"` for at most `checkpoints` whatever the
+      horizon, `False`). The metrics are reduced on the fly (nothing is saved), so with
+      `"recursive"` the gradient's memory does not grow with the horizon.
 
     Calling it as `objective(closed_loop, x0s)` (a batch of plant states with a leading axis)
     returns `(loss, aux)`, `aux` holding the per-sample metrics of `SAMPLE_METRICS` (the
@@ -211,6 +214,7 @@ class SettlingObjective(AbstractObjective):
         performance: Performance | None = None,
         t0: float = 0.0,
         checkpoint: bool | str = True,
+        checkpoints: int | None = None,
     ):
         where = "SettlingObjective"
         self.simulation = Simulation(
@@ -221,6 +225,7 @@ class SettlingObjective(AbstractObjective):
             solver=solver,
             save_every=save_every,
             checkpoint=checkpoint,
+            checkpoints=checkpoints,
             performance=performance,
             where=where,
         )
@@ -293,7 +298,7 @@ class MetricObjective(AbstractObjective):
 
     **Arguments:**
     - `t1`, `dt`: horizon and step [s]; `save_every`, `sampling`, `solver`, `performance`,
-      `t0`, `checkpoint` as [`SettlingObjective`][].
+      `t0`, `checkpoint`, `checkpoints` as [`SettlingObjective`][].
     - `times`: name -> metric object whose value is a time (summed into the objective).
     - `limits`: name -> metric object the `penalties` bound (e.g. `Peak("force")`).
     - `penalties`: [`Penalty`][]s on names of `limits`.
@@ -325,6 +330,7 @@ class MetricObjective(AbstractObjective):
         performance: Performance | None = None,
         t0: float = 0.0,
         checkpoint: bool | str = True,
+        checkpoints: int | None = None,
     ):
         where = "MetricObjective"
         self.simulation = Simulation(
@@ -335,6 +341,7 @@ class MetricObjective(AbstractObjective):
             solver=solver,
             save_every=save_every,
             checkpoint=checkpoint,
+            checkpoints=checkpoints,
             performance=performance,
             where=where,
         )
@@ -394,9 +401,11 @@ def _run_metrics(
     simulation: Simulation, closed_loop: AbstractClosedLoop, x0s: PyTree, metrics: dict
 ) -> dict[str, Array]:
     """Per-sample `metrics` plus `successful` and `status`, from the Monte Carlo batch runner
-    with the performance options resolved for the batch size."""
+    with the performance options resolved for the batch size, reduced on the fly when every
+    metric streams (as [`jaxatt.montecarlo.monte_carlo`][] does: the same values, no saved
+    trajectory to store or to differentiate through; else from the saved trajectory)."""
     sim = simulation.with_performance(simulation.performance.resolve(_batch_size(x0s)))
-    result = run_batch(closed_loop, x0s, sim, metrics)
+    result = run_batch(closed_loop, x0s, sim, metrics, stream=streamable(metrics))
     out = dict(result.metrics)
     out["successful"] = result.successful
     out["status"] = result.status
