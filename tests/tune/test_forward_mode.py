@@ -1,8 +1,8 @@
-"""Forward-mode sensitivities, nested and recursive checkpointing give reverse mode's gradient.
+"""Forward-mode sensitivities and recursive checkpointing give reverse mode's gradient.
 
 One small problem (a rigid body under MRP PD, two gains, 2 s of Euler steps of 1e-2 s, saved
-every 5 steps, 3 initial states), compiled four ways: reverse mode with one checkpoint per save
-interval (the default), reverse mode with nested checkpoints, reverse mode through equinox's
+every 5 steps, 3 initial states), compiled three ways: reverse mode with one checkpoint per save
+interval (the default), reverse mode through equinox's
 checkpointed scan with 3 stored loop states (`checkpoint="recursive"`), forward mode
 (`jax.jacfwd`).
 """
@@ -16,7 +16,6 @@ from jaxatt.controllers import MRPPD
 from jaxatt.metrics import ConvergenceTime
 from jaxatt.plants import MRPState, RigidBodyMRP
 from jaxatt.simulation import ClosedLoop, Euler, Simulation
-from jaxatt.simulation._loop import block_size
 
 
 J = jnp.array([[20.0, 1.2, 0.9], [1.2, 17.0, 1.4], [0.9, 1.4, 15.0]])
@@ -51,7 +50,6 @@ def gradients():
     out = {}
     for name, mode, checkpoint, checkpoints in (
         ("reverse", "reverse", True, None),
-        ("nested", "reverse", "nested", None),
         ("recursive", "reverse", "recursive", 3),  # 40 save intervals: many recomputed
         ("forward", "forward", True, None),
     ):
@@ -76,13 +74,6 @@ def test_forward_mode_gives_the_reverse_mode_gradient(gradients):
     assert np.all(np.isfinite(np.asarray(aux_f["t"])))
 
 
-def test_nested_checkpoints_give_the_same_loss_and_gradient(gradients):
-    loss_r, grad_r, _ = gradients["reverse"]
-    loss_n, grad_n, _ = gradients["nested"]
-    assert loss_n == loss_r  # the same forward computation
-    assert _relative(grad_n, grad_r) <= 1e-12
-
-
 def test_recursive_checkpoints_give_the_same_loss_and_gradient(gradients):
     loss_r, grad_r, _ = gradients["reverse"]
     loss_c, grad_c, _ = gradients["recursive"]
@@ -105,10 +96,10 @@ def test_tune_in_forward_mode_follows_the_reverse_mode_path():
     assert runs["forward"].gains["k1"] != pytest.approx(6.0)  # it moved
 
 
-def test_block_sizes_and_bad_options():
-    assert [block_size(n) for n in (1, 2, 4, 7, 12, 40, 3000)] == [1, 2, 2, 1, 4, 5, 50]
-    with pytest.raises(ValueError, match="checkpoint"):
-        Simulation(0.0, 1.0, 0.1, checkpoint="treeverse")
+def test_bad_options():
+    for bad in ("treeverse", "nested"):
+        with pytest.raises(ValueError, match="`checkpoint` must be True, False or 'recursive'"):
+            Simulation(0.0, 1.0, 0.1, checkpoint=bad)
     with pytest.raises(ValueError, match="`checkpoints` applies to checkpoint='recursive'"):
         Simulation(0.0, 1.0, 0.1, checkpoints=4)
     for bad in (0, -3, True):

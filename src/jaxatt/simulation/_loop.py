@@ -14,7 +14,6 @@ Signals are recorded at the save times from the state after these updates.
 """
 
 import abc
-import math
 
 import equinox as eqx
 import equinox.internal as eqxi
@@ -41,37 +40,11 @@ def _record_events(events: dict, flags: dict, t: Array) -> dict:
     return out
 
 
-def block_size(n: int) -> int:
-    """The largest divisor of `n` not above $\\lceil\\sqrt n\\rceil$ (1 for a prime `n`)."""
-    for size in range(math.isqrt(n - 1) + 1 if n > 1 else 1, 0, -1):
-        if n % size == 0:
-            return size
-    return 1
-
-
-def _nested_scan(body, carry, n: int):
-    r"""`lax.scan(body, carry, jnp.arange(n))` as blocks of $b$ iterations
-    ([`block_size`][]), each block under `jax.checkpoint`: reverse mode stores the carry at the
-    $n / b$ block starts, then, block by block, recomputes the block forward storing its $b$
-    carries (and whatever `body` itself stores). Stored carries: $n/b + b \approx 2\sqrt n$
-    (treeverse with two levels). Same values as the flat scan; outputs stacked as `(n, ...)`.
-    """
-    size = block_size(n)
-
-    @jax.checkpoint
-    def block(carry, k):
-        return lax.scan(body, carry, k * size + jnp.arange(size))
-
-    carry, out = lax.scan(block, carry, jnp.arange(n // size))
-    return carry, jtu.tree_map(lambda x: x.reshape(n, *x.shape[2:]), out)
-
-
 def _scan_intervals(body, carry, n: int, sim: Simulation):
     """`lax.scan(body, carry, jnp.arange(n))` over the save intervals, stored for reverse mode
-    as `sim.checkpoint` says: each interval under `jax.checkpoint` (`True`), in blocks as well
-    (`"nested"`, [`_nested_scan`][]), with equinox's online treeverse (`"recursive"`,
-    `equinox.internal.scan(kind="checkpointed")`: at most `sim.checkpoints` stored loop
-    states), or not at all (`False`)."""
+    as `sim.checkpoint` says: each interval under `jax.checkpoint` (`True`), with equinox's
+    online treeverse (`"recursive"`, `equinox.internal.scan(kind="checkpointed")`: at most
+    `sim.checkpoints` stored loop states), or not at all (`False`)."""
     if sim.checkpoint == "recursive":
         # The treeverse recomputes an interval from its stored start and differentiates that
         # one call: a `jax.checkpoint` inside would recompute it a second time.
@@ -80,8 +53,6 @@ def _scan_intervals(body, carry, n: int, sim: Simulation):
         )
     if sim.checkpoint:
         body = jax.checkpoint(body)
-    if sim.checkpoint == "nested":
-        return _nested_scan(body, carry, n)
     return lax.scan(body, carry, jnp.arange(n))
 
 

@@ -48,10 +48,7 @@ class Simulation(eqx.Module):
       is at `t0`, the last at `t1`.
     - `checkpoint`: how reverse-mode autodiff stores the loop (no effect without `grad`):
       `True` rematerializes each save interval (the loop state is stored once per save, the
-      steps inside an interval are recomputed); `"nested"` also groups the $N$ save intervals
-      in blocks of about $\sqrt N$ and stores only each block's initial state (a second level
-      of `jax.checkpoint`: about $2\sqrt N$ stored loop states instead of $N$, for one more
-      forward pass in the backward sweep); `"recursive"` runs the save intervals through
+      steps inside an interval are recomputed); `"recursive"` runs the save intervals through
       equinox's checkpointed scan (`equinox.internal.scan(kind="checkpointed")`, the online
       treeverse of diffrax's `RecursiveCheckpointAdjoint`), which stores at most `checkpoints`
       loop states whatever the horizon and recomputes intervals as often as that budget
@@ -125,13 +122,12 @@ class Simulation(eqx.Module):
         self.steps_per_sample = sampling.steps_per_sample(self.dt)
         self.solver = as_fixed_step_solver(solver, where)
         if isinstance(checkpoint, str):
-            valid = checkpoint in ("nested", "recursive")
+            valid = checkpoint == "recursive"
         else:
             valid = checkpoint in (True, False)
         if not valid:
             raise ValueError(
-                f"{where}: `checkpoint` must be True, False, 'nested' or 'recursive', got "
-                f"{checkpoint!r}."
+                f"{where}: `checkpoint` must be True, False or 'recursive', got {checkpoint!r}."
             )
         self.checkpoint = checkpoint if isinstance(checkpoint, str) else bool(checkpoint)
         if checkpoints is not None:

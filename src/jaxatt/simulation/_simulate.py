@@ -81,12 +81,10 @@ def simulate(
     - `save_every`: save every this many steps (must divide the step count); the first save
       is at `t0`, the last at `t1`.
     - `checkpoint`: rematerialize each save interval in reverse-mode autodiff, so gradient
-      memory grows with the number of saves rather than of steps; `"nested"` adds a second
-      level (blocks of about $\sqrt N$ of the $N$ save intervals), so that about $2\sqrt N$
-      loop states are stored instead of $N$; `"recursive"` runs equinox's checkpointed scan
-      (online treeverse), which stores at most `checkpoints` loop states whatever the horizon
-      (reverse mode only; see [`Simulation`][]). No effect without `grad`. The saved
-      trajectory itself is always stored.
+      memory grows with the number of saves rather than of steps; `"recursive"` runs
+      equinox's checkpointed scan (online treeverse), which stores at most `checkpoints` loop
+      states whatever the horizon (reverse mode only; see [`Simulation`][]). No effect
+      without `grad`. The saved trajectory itself is always stored.
     - `throw`: raise [`SimulationFailed`][] if the run fails (a non-finite state, an invalid
       plant, a constraint violation), after the compiled program has returned. Use
       `throw=False` for batches: failures are then reported per sample in

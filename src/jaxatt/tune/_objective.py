@@ -179,10 +179,10 @@ class SettlingObjective(AbstractObjective):
     - `save_every`, `sampling`, `solver`, `performance`, `t0`: as
       [`jaxatt.montecarlo.monte_carlo`][] (the crossing is interpolated between saves).
     - `checkpoint`, `checkpoints`: how reverse mode stores the loop, as
-      [`jaxatt.simulation.Simulation`][]'s (`True`, `"nested"` for about $2\\sqrt N$ stored
-      loop states over $N$ saves, `"recursive"` for at most `checkpoints` whatever the
-      horizon, `False`). The metrics are reduced on the fly (nothing is saved), so with
-      `"recursive"` the gradient's memory does not grow with the horizon.
+      [`jaxatt.simulation.Simulation`][]'s (`True`: one stored loop state per save;
+      `"recursive"`: at most `checkpoints` whatever the horizon; `False`). The metrics are
+      reduced on the fly (nothing is saved), so with `"recursive"` the gradient's memory does
+      not grow with the horizon.
 
     Calling it as `objective(closed_loop, x0s)` (a batch of plant states with a leading axis)
     returns `(loss, aux)`, `aux` holding the per-sample metrics of `SAMPLE_METRICS` (the
