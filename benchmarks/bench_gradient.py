@@ -1,6 +1,7 @@
 r"""Cost of the gradient of a Monte Carlo settling-time objective of Chen 2022's M1 with respect
 to its five reaching-law and surface gains: reverse mode against forward mode, with and without
-`simulate(checkpoint=True)` (or `"nested"`), time and peak memory.
+`simulate(checkpoint=True)` (or `"recursive"`), with the metric reduced from a saved trajectory or
+streamed, time and peak memory.
 
 **Closed loop and batch.** `jaxatt.scenarios.chen2022_two_phase_power.build("M1")` (classic
 RK4, dt = 1e-3 s, 30 N m per-axis saturation), `--batch` initial states from
@@ -13,11 +14,11 @@ linearly between saved samples, plus for a sample not settled by the horizon $T$
 measured final decay still needs; continuous, so every sample has a gradient), evaluated by
 `jaxatt.montecarlo.run_batch` (the batch runner of `monte_carlo` and of the tuning objectives)
 on `Simulation(0, T, dt, save_every=S, checkpoint=...)`. This is
-`jaxatt.tune.SettlingObjective`'s loss with `Mean()` and no penalties (checked in-run); it is
-written out here only because `SettlingObjective` does not expose the simulation's
-`checkpoint` flag. `S` (`--save-every`) defaults to 10 steps = 10 ms: the
-resolution of the interpolated crossing, and in reverse mode with `checkpoint=True` the length
-of each rematerialized interval.
+`jaxatt.tune.SettlingObjective`'s loss with `Mean()` and no penalties (checked in-run; the
+objective streams its metrics); it is written out here so that each configuration sets the
+checkpointing and whether the metric streams, with the objective's one metric alone. `S`
+(`--save-every`) defaults to 10 steps = 10 ms: the resolution of the interpolated crossing,
+and in reverse mode with `checkpoint=True` the length of each rematerialized interval.
 
 **Parameters.** $u$: the five unconstrained variables of `chen2022_tuning.parameters()`
 (rho, eta, lambda = e^u; p1/q1 = 1 + e^u; q2/p2 = sigmoid(u)), written into the loop with
@@ -30,10 +31,13 @@ of each rematerialized interval.
   recomputed in the backward pass, so memory grows with the number of saves.
 - `reverse-nockpt`: the same with `checkpoint=False`: the residuals of every RK4 step are kept,
   so memory grows with the number of steps.
-- `reverse-nested`: the same with `checkpoint="nested"`: the $N$ save intervals are scanned
-  in blocks of about $\sqrt N$, each block under a second `jax.checkpoint`, so about
-  $2\sqrt N$ loop states are stored instead of $N$ (the saved trajectory that the objective
-  reads is stored in every configuration).
+- `reverse-recursive`: the same with `checkpoint="recursive"`: equinox's checkpointed scan
+  (online treeverse) stores at most `--checkpoints` loop states (default equinox's choice,
+  about $\sqrt{2N}$ for $N$ save intervals) and recomputes intervals as its schedule needs.
+- `reverse-stream`, `reverse-stream-recursive`: `reverse` and `reverse-recursive` with the
+  metric reduced on the fly (`run_batch(..., stream=True)`, as the tuning objectives run it):
+  no saved trajectory is stored. In the other configurations the saved trajectory that the
+  objective reads is stored.
 - `jacfwd`: `jax.jacfwd(L)(u)`: the five tangents pushed forward with the primal in one pass
   (`checkpoint` has no effect in forward mode; `forward-nockpt` and `jacfwd-nockpt` exist to
   show it).
@@ -91,15 +95,17 @@ except ImportError:  # run as a script: benchmarks/ is sys.path[0]
 
 
 CONFIGS = {
-    "forward": ("forward", True),
-    "reverse": ("reverse", True),
-    "reverse-nockpt": ("reverse", False),
-    "reverse-nested": ("reverse", "nested"),
-    "jacfwd": ("jacfwd", True),
-    "forward-nockpt": ("forward", False),
-    "jacfwd-nockpt": ("jacfwd", False),
+    "forward": ("forward", True, False),
+    "reverse": ("reverse", True, False),
+    "reverse-nockpt": ("reverse", False, False),
+    "reverse-recursive": ("reverse", "recursive", False),
+    "reverse-stream": ("reverse", True, True),
+    "reverse-stream-recursive": ("reverse", "recursive", True),
+    "jacfwd": ("jacfwd", True, False),
+    "forward-nockpt": ("forward", False, False),
+    "jacfwd-nockpt": ("jacfwd", False, False),
 }
-"""Configuration name -> (mode, simulate's `checkpoint`)."""
+"""Configuration name -> (mode, simulate's `checkpoint`, whether the metric streams)."""
 TOLERANCE = 1e-3  # settling band on ||e_v||
 
 
@@ -117,6 +123,12 @@ def parse_args(argv=None) -> argparse.Namespace:
         nargs="+",
         choices=sorted(CONFIGS),
         default=["forward", "reverse", "reverse-nockpt", "jacfwd"],
+    )
+    p.add_argument(
+        "--checkpoints",
+        type=int,
+        default=None,
+        help="stored loop states of checkpoint='recursive' (default: equinox's choice)",
     )
     p.add_argument(
         "--max-temp-gib",
@@ -140,6 +152,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     common.finish_arguments(p, args, args.horizons, "gradient.json")
     if args.batch < 1 or args.save_every < 1:
         p.error("--batch and --save-every must be positive")
+    if args.checkpoints is not None and args.checkpoints < 1:
+        p.error("--checkpoints must be positive")
     for horizon in args.horizons:
         if common.steps_of(horizon, args.dt) % args.save_every:
             p.error(f"--save-every {args.save_every} must divide the steps of horizon {horizon}")
@@ -154,11 +168,19 @@ def parse_args(argv=None) -> argparse.Namespace:
 # The objective and the measured functions (built in the child processes).
 
 
-def make_loss(horizon: float, dt: float, save_every: int, checkpoint: bool | str):
+def make_loss(
+    horizon: float,
+    dt: float,
+    save_every: int,
+    checkpoint: bool | str,
+    stream: bool = False,
+    checkpoints: int | None = None,
+):
     """`loss(u, template, x0s) -> (L, successful)`: the mean objective time (module docstring)
     of the loop `jaxatt.tune.apply(template, parameters, u)` over the batch `x0s`, run by
     `jaxatt.montecarlo.run_batch` (the batch runner of `monte_carlo` and of the tuning
-    objectives) with simulate's `checkpoint` set."""
+    objectives) with simulate's `checkpoint` (and `checkpoints`) set, reducing the metric from
+    the saved trajectory or on the fly (`stream`)."""
     import jax
     import jax.numpy as jnp
 
@@ -180,9 +202,10 @@ def make_loss(horizon: float, dt: float, save_every: int, checkpoint: bool | str
             dt,
             save_every=save_every,
             checkpoint=checkpoint,
+            checkpoints=checkpoints if checkpoint == "recursive" else None,
             performance=Performance().resolve(n),  # as SettlingObjective resolves it
         )
-        out = run_batch(loop, x0s, sim, metrics)
+        out = run_batch(loop, x0s, sim, metrics, stream=stream)
         return jnp.mean(out.metrics["objective_time"]), out.successful
 
     return loss, parameters
@@ -230,7 +253,14 @@ def child(args, config: dict) -> dict:
     loop, x0s = common.m1_setup(args.seed, args.batch, args.dtype)
     if config["mode"] == "baseline":
         return {"rss_inputs_mib": common.max_rss_mib(), "rss_peak_mib": common.max_rss_mib()}
-    loss, parameters = make_loss(config["horizon"], args.dt, args.save_every, config["checkpoint"])
+    loss, parameters = make_loss(
+        config["horizon"],
+        args.dt,
+        args.save_every,
+        config["checkpoint"],
+        config["stream"],
+        args.checkpoints,
+    )
     u = tune.initial_unconstrained(loop, parameters)
     inputs = (u, loop, x0s)
     out = {"rss_inputs_mib": common.max_rss_mib()}
@@ -321,10 +351,11 @@ def run_configurations(args, base: float) -> list[dict]:
     rows = []
     for horizon in args.horizons:
         for name in args.configs:
-            mode, checkpoint = CONFIGS[name]
+            mode, checkpoint, stream = CONFIGS[name]
             config = {
                 "mode": mode,
                 "checkpoint": checkpoint,
+                "stream": stream,
                 "horizon": horizon,
                 "max_temp_gib": args.max_temp_gib,
             }
@@ -340,7 +371,7 @@ def run_configurations(args, base: float) -> list[dict]:
                     f"compile {out['compile_s']:.1f} s, run {out['run_s']:.3g} s, peak RSS - "
                     f"baseline {row['peak_minus_baseline_mib']:.0f} MiB, loss {out['loss']:.10g}"
                 )
-            print(f"  T = {horizon:g} s, {name:>14}: {status}", flush=True)
+            print(f"  T = {horizon:g} s, {name:>24}: {status}", flush=True)
     for row in rows:
         forward = find(rows, row["horizon"], "forward")
         if "run_s" in row and forward is not None:
@@ -398,7 +429,7 @@ def check_rows(rows, args, tol) -> list[dict]:
                 ok=row["failed_samples"] == 0,
                 failed_samples=row["failed_samples"],
             )
-            if row["grad"] is not None and row["checkpoint"] is not True:
+            if row["grad"] is not None and (row["checkpoint"] is not True or row["stream"]):
                 other = reverse if row["mode"] == "reverse" else jacfwd
                 check(
                     horizon,
@@ -478,7 +509,7 @@ def main(args) -> int:
     for name, g in growth.items():
         rss = g.get("rss_mib_per_1000_steps")
         print(
-            f"memory growth {name:>14}: {common.fmt(rss)} MiB of peak RSS and "
+            f"memory growth {name:>24}: {common.fmt(rss)} MiB of peak RSS and "
             f"{g['xla_temp_mib_per_1000_steps']:.3g} MiB of XLA temp per 1000 steps"
         )
     print()
@@ -514,7 +545,7 @@ def main(args) -> int:
 def print_table(rows, args, meta) -> None:
     header = [
         ("T s", 5),
-        ("config", 14),
+        ("config", 24),
         ("compile s", 9),
         ("run s", 9),
         ("x forward", 9),
@@ -532,12 +563,12 @@ def print_table(rows, args, meta) -> None:
     print("-" * len(line))
     for row in rows:
         if "error" in row:
-            print(f"{row['horizon']:>5g} | {row['config']:>14} | {row['error'][:80]}")
+            print(f"{row['horizon']:>5g} | {row['config']:>24} | {row['error'][:80]}")
             continue
         temp = row["xla_memory"].get("temp_size_in_bytes", float("nan")) / 2**20
         cells = [
             f"{row['horizon']:>5g}",
-            f"{row['config']:>14}",
+            f"{row['config']:>24}",
             f"{row['compile_s']:>9.2f}",
             f"{common.fmt(row.get('run_s'), '.4g'):>9}",
             f"{common.fmt(row.get('ratio_to_forward'), '.3g'):>9}",

@@ -97,9 +97,11 @@ def integrate_streaming(
     The samples `stream` sees are exactly the saved signals of [`integrate`][] (same times, same
     right-continuous outputs under a zero-order hold), so a stream's result equals the same
     reduction of the saved trajectory. The signals of save time $t_i$ are computed at the start
-    of step $i$, inside the (possibly scalarized) step, from the state that step starts from,
-    so that XLA's common-subexpression pass can share them with the step's first stage
-    $f(t_i, y_i)$ (the final sample is taken after the loop).
+    of step $i$, from the state that step starts from (the final sample after the loop): inside
+    the step when every step saves or the step is scalarized, so that XLA's
+    common-subexpression pass can share them with the step's first stage $f(t_i, y_i)$; once
+    per save interval, before its steps, otherwise (no `lax.cond` in the step: a smaller
+    program to compile and to differentiate).
     """
     return _run(closed_loop, x0, sim, stream)
 
