@@ -1,10 +1,9 @@
-"""Forward-mode sensitivities and recursive checkpointing give reverse mode's gradient.
+"""Forward-mode sensitivities give reverse mode's gradient.
 
 One small problem (a rigid body under MRP PD, two gains, 2 s of Euler steps of 1e-2 s, saved
-every 5 steps, 3 initial states), compiled three ways: reverse mode with one checkpoint per save
-interval (the default), reverse mode through equinox's
-checkpointed scan with 3 stored loop states (`checkpoint="recursive"`), forward mode
-(`jax.jacfwd`).
+every 5 steps, 3 initial states), compiled two ways: reverse mode with one checkpoint per save
+interval (the default) and forward mode (`jax.jacfwd`). Recursive checkpoints:
+`test_gradient_memory.py`.
 """
 
 import jax.numpy as jnp
@@ -50,7 +49,6 @@ def gradients():
     out = {}
     for name, mode, checkpoint, checkpoints in (
         ("reverse", "reverse", True, None),
-        ("recursive", "reverse", "recursive", 3),  # 40 save intervals: many recomputed
         ("forward", "forward", True, None),
     ):
         loop, x0s, objective, u = _problem(checkpoint, checkpoints)
@@ -72,13 +70,6 @@ def test_forward_mode_gives_the_reverse_mode_gradient(gradients):
     assert _relative(grad_f, grad_r) <= 1e-8
     assert np.all(np.asarray(aux_f["successful"]))
     assert np.all(np.isfinite(np.asarray(aux_f["t"])))
-
-
-def test_recursive_checkpoints_give_the_same_loss_and_gradient(gradients):
-    loss_r, grad_r, _ = gradients["reverse"]
-    loss_c, grad_c, _ = gradients["recursive"]
-    assert loss_c == loss_r  # the same forward computation
-    assert _relative(grad_c, grad_r) <= 1e-12
 
 
 def test_tune_in_forward_mode_follows_the_reverse_mode_path():
