@@ -24,7 +24,7 @@ PARAMS = {
 }
 
 
-def _problem(checkpoint=True, checkpoints=None):
+def _problem(checkpoint=True, checkpoints=None, horizon=2.0):
     loop = ClosedLoop(RigidBodyMRP(J), MRPPD(6.0, 5.0))
     x0s = MRPState(
         jnp.array([[0.1, -0.2, 0.3], [0.3, 0.1, -0.2], [-0.2, 0.2, 0.1]]),
@@ -33,7 +33,7 @@ def _problem(checkpoint=True, checkpoints=None):
     # One time metric (the settling objective's convergence time), Euler steps: small programs.
     times = {"t": ConvergenceTime("attitude_error_vector", 1e-3)}
     objective = tune.MetricObjective(
-        2.0,
+        horizon,
         1e-2,
         times,
         save_every=5,

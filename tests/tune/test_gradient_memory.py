@@ -15,8 +15,6 @@ import numpy as np
 import pytest
 
 from jaxatt import tune
-from jaxatt.metrics import ConvergenceTime
-from jaxatt.simulation import Euler
 
 from .test_forward_mode import PARAMS, _problem
 
@@ -29,22 +27,12 @@ HORIZONS = (2.0, 8.0)
 def compiled():
     """(setting, horizon) -> (the compiled `value_and_grad` of the loss, the unconstrained
     gains)."""
-    loop, x0s, _, u = _problem()
-    times = {"t": ConvergenceTime("attitude_error_vector", 1e-3)}
     out = {}
     for name, (checkpoint, checkpoints) in SETTINGS.items():
         for horizon in HORIZONS:
-            objective = tune.MetricObjective(
-                horizon,
-                1e-2,
-                times,
-                save_every=5,
-                solver=Euler(),
-                checkpoint=checkpoint,
-                checkpoints=checkpoints,
-            )
+            loop, x0s, objective, u = _problem(checkpoint, checkpoints, horizon)
 
-            def loss(u, objective=objective):
+            def loss(u, loop=loop, x0s=x0s, objective=objective):
                 return objective(tune.apply(loop, PARAMS, u), x0s)[0]
 
             out[name, horizon] = jax.jit(jax.value_and_grad(loss)).lower(u).compile()
