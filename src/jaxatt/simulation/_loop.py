@@ -229,26 +229,37 @@ def _run_streaming(closed_loop, sim, stream, one_step, sample, time, carry0) -> 
             )
         return loop.signals(t, y, held)
 
+    def update(loop, strm, inner, state, i):
+        """The stream's state after the signals of save time t_i."""
+        y, held, pending = inner[:3]
+        return strm.update(state, time(i), observed(loop, y, held, pending, time(i), i))
+
+    def keep_initial(i, new, state):
+        """`new`, except at i = 0, whose sample `stream.init` already took."""
+        return jtu.tree_map(lambda a, b: jnp.where(i > 0, a, b), new, state)
+
     def streaming_step(module, carry, i):
         loop, strm = module
         inner, state = carry
-        y, held, pending = inner[:3]
-        t = time(i)
-
-        def observe(state):
-            return strm.update(state, t, observed(loop, y, held, pending, t, i))
-
         if every == 1:
-            # Every step saves: update unconditionally, keep the initial state at i = 0.
-            new = observe(state)
-            state = jtu.tree_map(lambda a, b: jnp.where(i > 0, a, b), new, state)
+            # Every step saves: update unconditionally.
+            state = keep_initial(i, update(loop, strm, inner, state, i), state)
         else:
-            state = lax.cond((i % every == 0) & (i > 0), observe, lambda s: s, state)
+            state = lax.cond(
+                (i % every == 0) & (i > 0),
+                lambda s: update(loop, strm, inner, s, i),
+                lambda s: s,
+                state,
+            )
         return one_step(loop, inner, i), state
 
     t_last = time(sim.n_steps)
     signals0 = closed_loop.signals(time(0), y0, held0)
     state0 = stream.init(time(0), signals0, t_last)
+    # Unscalarized, saving every k > 1 steps: one observation per save interval, before its
+    # steps (in `interval`), instead of a `lax.cond` in every step: a smaller program to
+    # compile and differentiate, the same values.
+    per_interval = every > 1 and not sim.performance.scalarize
     if sim.performance.scalarize:
         # Carry the stream's fresh values two per complex number: one XLA:CPU kernel each
         # (`._pairing`; same values).
@@ -264,30 +275,21 @@ def _run_streaming(closed_loop, sim, stream, one_step, sample, time, carry0) -> 
         flat0 = (carry0, state0)
 
         def step(carry, i):
+            if per_interval:
+                inner, state = carry
+                return (one_step(closed_loop, inner, i), state), None
             return streaming_step(module, carry, i), None
 
         def unflatten(carry):
             return carry
 
     def interval(flat, j):
-        flat, _ = lax.scan(step, flat, j * every + jnp.arange(every))
-        return flat, None
-
-    if every > 1 and not sim.performance.scalarize:
-        # One observation per save interval, before its steps: no `lax.cond` in the step
-        # (a smaller program to compile and differentiate; the same values).
-        def step(carry, i):
-            inner, state = carry
-            return (one_step(closed_loop, inner, i), state), None
-
-        def interval(flat, j):
+        i = j * every
+        if per_interval:
             inner, state = flat
-            i = j * every
-            y, held, pending = inner[:3]
-            new = stream.update(state, time(i), observed(closed_loop, y, held, pending, time(i), i))
-            state = jtu.tree_map(lambda a, b: jnp.where(j > 0, a, b), new, state)
-            flat, _ = lax.scan(step, (inner, state), i + jnp.arange(every))
-            return flat, None
+            flat = (inner, keep_initial(i, update(closed_loop, stream, inner, state, i), state))
+        flat, _ = lax.scan(step, flat, i + jnp.arange(every))
+        return flat, None
 
     flat, _ = _scan_intervals(interval, flat0, sim.n_steps // every, sim)
     inner, state = unflatten(flat)
