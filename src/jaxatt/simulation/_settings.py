@@ -58,7 +58,7 @@ class Simulation(eqx.Module):
       no trajectory, so with `"recursive"` its gradient's memory does not grow with the
       horizon.
     - `checkpoints`: with `checkpoint="recursive"`, the number of stored loop states
-      (a positive integer); `None` (default) lets equinox choose (about $\sqrt N$ for $N$
+      (a positive integer); `None` (default) lets equinox choose (about $\sqrt{2N}$ for $N$
       save intervals). Not allowed with the other `checkpoint` settings.
     - `performance`: a [`Performance`][] (how the loop is compiled; never what it computes).
     - `where`: the name used in error messages (the public function building it).
@@ -121,15 +121,11 @@ class Simulation(eqx.Module):
         self.sampling = sampling
         self.steps_per_sample = sampling.steps_per_sample(self.dt)
         self.solver = as_fixed_step_solver(solver, where)
-        if isinstance(checkpoint, str):
-            valid = checkpoint == "recursive"
-        else:
-            valid = checkpoint in (True, False)
-        if not valid:
+        if checkpoint not in (True, False, "recursive"):
             raise ValueError(
                 f"{where}: `checkpoint` must be True, False or 'recursive', got {checkpoint!r}."
             )
-        self.checkpoint = checkpoint if isinstance(checkpoint, str) else bool(checkpoint)
+        self.checkpoint = checkpoint if checkpoint == "recursive" else bool(checkpoint)
         if checkpoints is not None:
             if self.checkpoint != "recursive":
                 raise ValueError(
