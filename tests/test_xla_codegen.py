@@ -3,7 +3,8 @@
 (`--xla_cpu_use_fusion_emitters=false`, which compile jaxatt's closed loops 15-22 % faster,
 benchmarks/README.md) and LLVM's optimization level 0 instead of 2
 (`--xla_backend_optimization_level=0`, which compiles them about 30 % faster and runs them
-1.5-1.8x slower). A user who runs jaxatt with neither gets the same numbers: Chen's M1 closed
+1.5-1.8x slower, a scalarized batch 6x). A user who runs jaxatt with neither gets the same
+numbers: Chen's M1 closed
 loop (sliding, saturated, |s|^a), a scalarized vmapped batch of it and reverse-mode gradients
 of its loss terms, computed here and in a child process under the other configuration (XLA's
 defaults if this process has either setting, both settings if it has neither), must agree.
