@@ -43,6 +43,8 @@ import jax
 import numpy as np
 
 
+DT = 1e-3
+"""RK4 step [s]."""
 DEFAULT_METRICS = ("settling_time", "peak_torque", "effort", "max_rate_error")
 
 
@@ -60,9 +62,9 @@ def parse_args(argv=None) -> argparse.Namespace:
     args = p.parse_args(argv)
     if args.batch < 1 or args.rounds < 1:
         p.error("--batch and --rounds must be positive")
-    ratio = args.horizon / 1e-3
+    ratio = args.horizon / DT
     if args.horizon <= 0 or abs(ratio - round(ratio)) > 1e-9 * ratio:
-        p.error("--horizon must be a positive whole multiple of dt = 0.001 s")
+        p.error(f"--horizon must be a positive whole multiple of dt = {DT:g} s")
     return args
 
 
@@ -93,13 +95,13 @@ def running_sum(signal: str, component: int):
 def programs(loop, n_steps: int, horizon: float) -> dict:
     """The timed programs, by name: `fn(loop, x0s) -> metrics` for `UserProgram`."""
     from jaxatt.metrics import Absolute, Peak
-    from jaxatt.montecarlo import monte_carlo
+    from jaxatt.montecarlo import default_metrics, monte_carlo
 
-    defaults = loop.default_metrics(1e-2)  # monte_carlo's own default tolerance
+    defaults = default_metrics(loop)  # what monte_carlo records with metrics=None
 
     def call(**options):
         def fn(loop, x0s):
-            return monte_carlo(loop, x0s, 0.0, horizon, dt=1e-3, **options).metrics
+            return monte_carlo(loop, x0s, 0.0, horizon, dt=DT, **options).metrics
 
         return fn
 
@@ -117,11 +119,11 @@ def main(args) -> int:
     meta = _common.machine_meta()
     _common.print_meta(
         meta,
-        f"Chen 2022 M1, RK4 dt 1e-3 s, {args.horizon:g} s, batch {args.batch}, float64; "
+        f"Chen 2022 M1, RK4 dt {DT:g} s, {args.horizon:g} s, batch {args.batch}, float64; "
         f"{args.rounds} round-robin rounds",
     )
     loop, x0s = _common.m1_setup(args.seed, args.batch, np.float64)
-    n_steps = round(args.horizon / 1e-3)
+    n_steps = _common.steps_of(args.horizon, DT)
     compiled, outputs, compile_s = {}, {}, {}
     for name, fn in programs(loop, n_steps, args.horizon).items():
         program = _quick.UserProgram(fn)

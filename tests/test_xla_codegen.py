@@ -27,8 +27,14 @@ import numpy as np
 import pytest
 
 
+def _name(flag: str) -> str:
+    """`--xla_some_flag=value` -> `xla_some_flag`."""
+    return flag.lstrip("-").split("=")[0]
+
+
 # The suite's compile-time settings (`.ci/run`), as `XLA_FLAGS` spells them.
 SETTINGS = ("--xla_cpu_use_fusion_emitters=false", "--xla_backend_optimization_level=0")
+SETTING_NAMES = {_name(setting) for setting in SETTINGS}
 
 # `results()` runs in this process and in a child under the other configuration: the numbers
 # are computed by the same code.
@@ -73,22 +79,16 @@ def results():
 """
 
 
-def _name(flag: str) -> str:
-    return flag.lstrip("-").split("=")[0]
-
-
 def _settings_in(flags: str) -> int:
     """How many of the suite's settings `flags` names."""
-    names = {_name(setting) for setting in SETTINGS}
-    return sum(_name(f) in names for f in flags.split())
+    return sum(_name(f) in SETTING_NAMES for f in flags.split())
 
 
 def _other_configuration(flags: str) -> str:
     """XLA_FLAGS with the suite's settings flipped: XLA's defaults for both if either is set,
     else both set. Any other flag is kept."""
     if _settings_in(flags):
-        names = {_name(setting) for setting in SETTINGS}
-        return " ".join(f for f in flags.split() if _name(f) not in names)
+        return " ".join(f for f in flags.split() if _name(f) not in SETTING_NAMES)
     return " ".join(flags.split() + list(SETTINGS))
 
 
@@ -107,10 +107,10 @@ def _in_a_child(flags: str) -> dict:
         text=True,
         timeout=600,
     )
-    for setting in SETTINGS:
-        if done.returncode != 0 and f"Unknown flag in XLA_FLAGS: --{_name(setting)}" in done.stderr:
+    for name in SETTING_NAMES:
+        if done.returncode != 0 and f"Unknown flag in XLA_FLAGS: --{name}" in done.stderr:
             # A jaxlib without this setting: there is no second configuration to compare.
-            pytest.skip(f"this jaxlib does not know --{_name(setting)}")
+            pytest.skip(f"this jaxlib does not know --{name}")
     assert done.returncode == 0, done.stderr[-3000:]
     return json.loads(done.stdout.strip().splitlines()[-1])
 
