@@ -51,6 +51,11 @@ class AbstractClosedLoop(eqx.Module):
       applied control by convention;
     - `default_metrics(tolerance)` (optional): what `monte_carlo` records when given no
       metrics.
+
+    Under continuous control `held = None` means "the outputs at $(t, y)$": `vector_field(t, y,
+    hold(t, y))` and `signals(t, y, hold(t, y))` must equal `vector_field(t, y, None)` and
+    `signals(t, y, None)`. The streaming loop relies on it to evaluate the flight software once
+    per step for both the signals and the solver's first stage.
     """
 
     @abc.abstractmethod

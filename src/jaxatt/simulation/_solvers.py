@@ -20,14 +20,28 @@ from jaxtyping import Array, PyTree
 VectorField = Callable[[Any, PyTree[Array], Any], PyTree[Array]]
 
 
+def _start_derivative(vector_field, t, y, args, given):
+    """$f(t, y, \\text{args})$: `given` if the caller passed it, evaluated otherwise."""
+    return vector_field(t, y, args) if given is None else given
+
+
 def _axpy(y: PyTree[Array], h, k: PyTree[Array]) -> PyTree[Array]:
     return jtu.tree_map(lambda yi, ki: yi + h * ki, y, k)
 
 
 class AbstractFixedStepSolver(eqx.Module):
-    """One step of size `dt` of $\\dot y = f(t, y, \\text{args})$ for a pytree `y`."""
+    """One step of size `dt` of $\\dot y = f(t, y, \\text{args})$ for a pytree `y`.
+
+    A solver whose first stage evaluates $f(t, y, \\text{args})$ at the point the step starts
+    from may declare `takes_start_derivative = True`; its `step` then accepts that value as
+    `start_derivative=` and does not evaluate it again. The time loop passes it when it has
+    already evaluated the flight software at the start of the step for the signals it streams
+    (so the controller is evaluated once per stage, not once more per step). Other solvers
+    (the default `False`) are called without it.
+    """
 
     order: eqx.AbstractClassVar[int]
+    takes_start_derivative: ClassVar[bool] = False
 
     @abc.abstractmethod
     def init(self, vector_field: VectorField, t0, dt, y0: PyTree[Array], args) -> PyTree:
@@ -45,12 +59,15 @@ class Euler(AbstractFixedStepSolver):
     discrete-time simulation of a sampled controller."""
 
     order: ClassVar[int] = 1
+    takes_start_derivative: ClassVar[bool] = True
 
     def init(self, vector_field, t0, dt, y0, args) -> None:
         return None
 
-    def step(self, vector_field, t, dt, y, args, state):
-        return _axpy(y, dt, vector_field(t, y, args)), None
+    def step(self, vector_field, t, dt, y, args, state, start_derivative=None):
+        """`start_derivative`: $f(t, y, \\text{args})$ if the caller has it."""
+        k1 = _start_derivative(vector_field, t, y, args, start_derivative)
+        return _axpy(y, dt, k1), None
 
 
 class RK4(AbstractFixedStepSolver):
@@ -59,13 +76,15 @@ class RK4(AbstractFixedStepSolver):
     smooth dynamics. This is the integrator of the papers jaxatt reproduces."""
 
     order: ClassVar[int] = 4
+    takes_start_derivative: ClassVar[bool] = True
 
     def init(self, vector_field, t0, dt, y0, args) -> None:
         return None
 
-    def step(self, vector_field, t, dt, y, args, state):
+    def step(self, vector_field, t, dt, y, args, state, start_derivative=None):
+        """`start_derivative`: the first stage $f(t, y, \\text{args})$ if the caller has it."""
         half = 0.5 * dt
-        k1 = vector_field(t, y, args)
+        k1 = _start_derivative(vector_field, t, y, args, start_derivative)
         k2 = vector_field(t + half, _axpy(y, half, k1), args)
         k3 = vector_field(t + half, _axpy(y, half, k2), args)
         k4 = vector_field(t + dt, _axpy(y, dt, k3), args)
