@@ -1,6 +1,5 @@
-"""The streaming loop with a sample at every step: one flight-software evaluation feeds both
-the streamed signals and the solver's first stage, and the numbers stay those of the saved
-trajectory."""
+"""A sample at every step, streamed or saved: one flight-software evaluation feeds both the
+signals and the solver's first stage, and the numbers stay those of the other paths."""
 
 import diffrax
 import jax
@@ -9,6 +8,7 @@ import jax.random as jr
 import numpy as np
 import pytest
 
+import jaxatt
 from jaxatt import montecarlo as mc
 from jaxatt.metrics import Chattering, Final
 from jaxatt.plants import QuaternionState
@@ -36,25 +36,25 @@ def _sub_jaxprs(eqn):
                 yield item
 
 
-def _count(jaxpr, primitive: str, *, into_scans: bool = True) -> int:
-    """How many `primitive` equations `jaxpr` holds, nested calls included."""
+def _count(jaxpr, primitive: str) -> int:
+    """How many `primitive` equations `jaxpr` holds, nested calls and loops included."""
     n = 0
     for eqn in jaxpr.eqns:
         n += eqn.primitive.name == primitive
-        if into_scans or eqn.primitive.name != "scan":
-            n += sum(_count(sub, primitive, into_scans=into_scans) for sub in _sub_jaxprs(eqn))
+        n += sum(_count(sub, primitive) for sub in _sub_jaxprs(eqn))
     return n
 
 
-def _step_body(jaxpr):
-    """The body of the innermost `scan`: one time step."""
+def _interval_body(jaxpr):
+    """The body of the outermost `scan`: one save interval (one step when every step saves),
+    with whatever it evaluates around its steps."""
     for eqn in jaxpr.eqns:
-        for sub in _sub_jaxprs(eqn):
-            inner = _step_body(sub)
-            if inner is not None:
-                return inner
         if eqn.primitive.name == "scan":
             return eqn.params["jaxpr"].jaxpr
+        for sub in _sub_jaxprs(eqn):
+            body = _interval_body(sub)
+            if body is not None:
+                return body
     return None
 
 
@@ -78,9 +78,9 @@ def test_the_streamed_step_evaluates_the_flight_software_once_per_stage(
             loop, x0s, 0.0, 10 * DT, dt=DT, solver=solver, performance=performance
         ).metrics
 
-    body = _step_body(jax.make_jaxpr(program)(loop, x0s).jaxpr)
+    body = _interval_body(jax.make_jaxpr(program)(loop, x0s).jaxpr)
     components = 3 if scalarize else 1
-    assert _count(body, "exp", into_scans=False) == stages * per_field * components
+    assert _count(body, "exp") == stages * per_field * components
 
 
 @pytest.mark.parametrize(
@@ -107,3 +107,30 @@ def test_streaming_every_step_equals_the_saved_trajectory(chen_loop, solver, sca
         np.testing.assert_allclose(
             streamed.metrics[name], saved.metrics[name], rtol=1e-12, atol=0, err_msg=name
         )
+
+
+def test_the_saved_step_evaluates_the_flight_software_once_per_stage(chen_loop):
+    # `simulate`'s default (a save at every step) shares the first stage the same way.
+    loop, x0s = chen_loop
+    x0 = jax.tree.map(lambda a: a[0], x0s)
+    jaxpr = jax.make_jaxpr(lambda x0: jaxatt.simulate(loop, x0, 0.0, 10 * DT, dt=DT))(x0).jaxpr
+    assert _count(_interval_body(jaxpr), "exp") == 4
+
+
+@pytest.mark.parametrize("solver", [RK4(), Euler()], ids=["rk4", "euler"])
+def test_saving_every_step_equals_saving_every_other_step(chen_loop, solver):
+    # save_every=1 computes the signals of t_i at the start of step i (sharing the first
+    # stage); save_every=2 at the end of each interval, from a separate evaluation. The saves
+    # they have in common must agree: states, signals and times.
+    loop, x0s = chen_loop
+    x0 = jax.tree.map(lambda a: a[0], x0s)
+    every, other = (
+        jaxatt.simulate(loop, x0, 0.0, HORIZON, dt=DT, solver=solver, save_every=k) for k in (1, 2)
+    )
+    np.testing.assert_array_equal(every.ts[::2], other.ts)
+    for a, b in zip(jax.tree.leaves(every.states), jax.tree.leaves(other.states)):
+        np.testing.assert_allclose(a[::2], b, rtol=1e-12, atol=1e-15)
+    for name in other.signals:
+        a, b = np.asarray(every.signals[name])[::2], np.asarray(other.signals[name])
+        scale = np.max(np.abs(b))
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-13 * scale, err_msg=name)

@@ -84,6 +84,12 @@ def integrate(closed_loop: AbstractClosedLoop, x0: PyTree[Array], sim: Simulatio
     """Run the time loop of `sim` from the plant state `x0` (traceable; no host checks).
 
     `sim.performance.scalarize` must already be decided (`Performance.resolve`).
+
+    The signals of a save time are those of the state after that time's updates. When every
+    step saves, under continuous control, with a solver that `takes_start_derivative`, on the
+    plain (unscalarized) loop, step $i$ computes the signals of $t_i$ with the flight-software
+    outputs its first stage uses (one evaluation for both); otherwise each save interval
+    computes them at its end.
     """
     return _run(closed_loop, x0, sim, None)
 
@@ -168,9 +174,22 @@ def _run(closed_loop, x0, sim, stream):
         failure_time = jnp.where(first, t_next, failure_time)
         return y, held, pending, solver_state, status, failure_time, events
 
+    # Under continuous control the signals of t_i and a solver's first stage f(t_i, y_i) need
+    # the same flight-software outputs. When every step saves, the loops evaluate them once,
+    # at the start of the step, for both. (XLA did not merge the two evaluations: 17
+    # `exp`/`log` pairs per step against 14 for Chen 2022's loop; benchmarks/README.md.)
+    shares_first_stage = sim.save_every == 1 and not sps and sim.solver.takes_start_derivative
+
+    def observe_at_start(loop, y, i):
+        """The signals of $t_i$ and $f(t_i, y_i)$, from one evaluation of the flight software."""
+        t = time(i)
+        flight = loop.hold(t, y)  # under continuous control: the outputs at (t_i, y_i)
+        return loop.signals(t, y, flight), loop.vector_field(t, y, flight)
+
     carry0 = (y0, held0, pending0, solver_state0, status0, failure0, events0)
     if stream is not None:
-        return _run_streaming(closed_loop, sim, stream, one_step, sample, time, carry0)
+        start = observe_at_start if shares_first_stage else None
+        return _run_streaming(closed_loop, sim, stream, one_step, sample, time, carry0, start)
     if sim.performance.scalarize:
         # The time loop runs on scalar entries (a struct of arrays under vmap): `._scalarize`.
         flat0, step, unflatten = scalarized_loop_step(
@@ -186,6 +205,30 @@ def _run(closed_loop, x0, sim, stream):
             return carry
 
     every = sim.save_every
+    n_intervals = sim.n_steps // every
+
+    def prepend(first, rest):
+        return jnp.concatenate([first[None], rest], axis=0)
+
+    if shares_first_stage and not sim.performance.scalarize:
+        # The signals of t_i are saved by step i; those of the last time after the loop.
+        def save_step(carry, i):
+            signals, start_derivative = observe_at_start(closed_loop, carry[0], i)
+            carry = one_step(closed_loop, carry, i, start_derivative)
+            return carry, (carry[0], signals)
+
+        carry, (ys, signals) = _scan_intervals(save_step, carry0, n_intervals, sim)
+        y, *_, status, failure_time, events = carry
+        last = closed_loop.signals(time(sim.n_steps), y, None)
+        signals = jtu.tree_map(lambda rest, x: jnp.concatenate([rest, x[None]]), signals, last)
+        return Trajectory(
+            ts=time(jnp.arange(n_intervals + 1)),
+            states=jtu.tree_map(prepend, y0, ys),
+            signals=signals,
+            status=status,
+            failure_time=failure_time,
+            events=events,
+        )
 
     def save_interval(flat, j):
         flat, _ = lax.scan(step, flat, j * every + jnp.arange(every))
@@ -202,14 +245,9 @@ def _run(closed_loop, x0, sim, stream):
             )
         return flat, (y, closed_loop.signals(t_end, y_signals, held))
 
-    n_intervals = sim.n_steps // every
     flat, (ys, signals) = _scan_intervals(save_interval, flat0, n_intervals, sim)
     *_, status, failure_time, events = unflatten(flat)
     signals0 = closed_loop.signals(time(0), y0, held0)
-
-    def prepend(first, rest):
-        return jnp.concatenate([first[None], rest], axis=0)
-
     return Trajectory(
         ts=time(jnp.arange(n_intervals + 1) * every),
         states=jtu.tree_map(prepend, y0, ys),
@@ -220,8 +258,15 @@ def _run(closed_loop, x0, sim, stream):
     )
 
 
-def _run_streaming(closed_loop, sim, stream, one_step, sample, time, carry0) -> Streamed:
-    """[`integrate_streaming`][]'s loop: the stream's state rides in the step's carry."""
+def _run_streaming(
+    closed_loop, sim, stream, one_step, sample, time, carry0, observe_at_start
+) -> Streamed:
+    """[`integrate_streaming`][]'s loop: the stream's state rides in the step's carry.
+
+    `observe_at_start(loop, y, i) -> (signals, f(t_i, y_i))`, or `None` where the signals and
+    the first stage cannot share an evaluation (a hold, a solver without `start_derivative`,
+    saves every k > 1 steps).
+    """
     y0, held0 = carry0[0], carry0[1]
     sps, every = sim.steps_per_sample, sim.save_every
 
@@ -240,19 +285,6 @@ def _run_streaming(closed_loop, sim, stream, one_step, sample, time, carry0) -> 
         y, held, pending = inner[:3]
         return strm.update(state, time(i), observed(loop, y, held, pending, time(i), i))
 
-    # Under continuous control the signals of t_i and a solver's first stage f(t_i, y_i) need
-    # the same flight-software outputs: evaluate them once, for both. (XLA did not merge the
-    # two evaluations: 17 `exp`/`log` pairs per step against 14 for Chen 2022's loop, and a
-    # 1.19x faster default `monte_carlo` at 10^4 samples; benchmarks/README.md.)
-    shares_first_stage = not sps and sim.solver.takes_start_derivative
-
-    def update_and_start_derivative(loop, strm, inner, state, i):
-        """`update`, and $f(t_i, y_i)$, from one evaluation of the flight software."""
-        y, t = inner[0], time(i)
-        flight = loop.hold(t, y)  # under continuous control: the outputs at (t_i, y_i)
-        state = strm.update(state, t, loop.signals(t, y, flight))
-        return state, loop.vector_field(t, y, flight)
-
     def keep_initial(i, new, state):
         """`new`, except at i = 0, whose sample `stream.init` already took."""
         return jtu.tree_map(lambda a, b: jnp.where(i > 0, a, b), new, state)
@@ -260,9 +292,10 @@ def _run_streaming(closed_loop, sim, stream, one_step, sample, time, carry0) -> 
     def streaming_step(module, carry, i):
         loop, strm = module
         inner, state = carry
-        if every == 1 and shares_first_stage:
-            # Every step saves: update unconditionally.
-            new, start_derivative = update_and_start_derivative(loop, strm, inner, state, i)
+        if observe_at_start is not None:
+            # Every step saves: update unconditionally, sharing the first stage.
+            signals, start_derivative = observe_at_start(loop, inner[0], i)
+            new = strm.update(state, time(i), signals)
             return one_step(loop, inner, i, start_derivative), keep_initial(i, new, state)
         if every == 1:
             state = keep_initial(i, update(loop, strm, inner, state, i), state)
