@@ -8,7 +8,6 @@ import jax.random as jr
 import numpy as np
 import pytest
 
-import jaxatt
 from jaxatt import montecarlo as mc
 from jaxatt.metrics import Chattering, Final
 from jaxatt.plants import QuaternionState
@@ -109,28 +108,51 @@ def test_streaming_every_step_equals_the_saved_trajectory(chen_loop, solver, sca
         )
 
 
-def test_the_saved_step_evaluates_the_flight_software_once_per_stage(chen_loop):
-    # `simulate`'s default (a save at every step) shares the first stage the same way.
+@pytest.mark.parametrize("scalarize", [False, True])
+def test_the_saved_step_evaluates_the_flight_software_once_per_stage(chen_loop, scalarize):
+    # Saving every step (the default of `simulate` and of `monte_carlo(...,
+    # keep_trajectories=True)`) shares the first stage the same way.
     loop, x0s = chen_loop
-    x0 = jax.tree.map(lambda a: a[0], x0s)
-    jaxpr = jax.make_jaxpr(lambda x0: jaxatt.simulate(loop, x0, 0.0, 10 * DT, dt=DT))(x0).jaxpr
-    assert _count(_interval_body(jaxpr), "exp") == 4
+
+    def program(loop, x0s):
+        performance = Performance(scalarize=scalarize)
+        result = mc.monte_carlo(
+            loop, x0s, 0.0, 10 * DT, dt=DT, keep_trajectories=True, performance=performance
+        )
+        return result.trajectories
+
+    body = _interval_body(jax.make_jaxpr(program)(loop, x0s).jaxpr)
+    assert _count(body, "exp") == 4 * (3 if scalarize else 1)
 
 
-@pytest.mark.parametrize("solver", [RK4(), Euler()], ids=["rk4", "euler"])
-def test_saving_every_step_equals_saving_every_other_step(chen_loop, solver):
+@pytest.mark.parametrize(
+    "solver, scalarize",
+    [(RK4(), False), (Euler(), False), (RK4(), True)],
+    ids=["rk4-plain", "euler-plain", "rk4-scalarized"],
+)
+def test_saving_every_step_equals_saving_every_other_step(chen_loop, solver, scalarize):
     # save_every=1 computes the signals of t_i at the start of step i (sharing the first
     # stage); save_every=2 at the end of each interval, from a separate evaluation. The saves
     # they have in common must agree: states, signals and times.
     loop, x0s = chen_loop
-    x0 = jax.tree.map(lambda a: a[0], x0s)
     every, other = (
-        jaxatt.simulate(loop, x0, 0.0, HORIZON, dt=DT, solver=solver, save_every=k) for k in (1, 2)
+        mc.monte_carlo(
+            loop,
+            x0s,
+            0.0,
+            HORIZON,
+            dt=DT,
+            solver=solver,
+            save_every=k,
+            keep_trajectories=True,
+            performance=Performance(scalarize=scalarize),
+        ).trajectories
+        for k in (1, 2)
     )
-    np.testing.assert_array_equal(every.ts[::2], other.ts)
+    np.testing.assert_array_equal(every.ts[:, ::2], other.ts)
     for a, b in zip(jax.tree.leaves(every.states), jax.tree.leaves(other.states)):
-        np.testing.assert_allclose(a[::2], b, rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(a[:, ::2], b, rtol=1e-12, atol=1e-15)
     for name in other.signals:
-        a, b = np.asarray(every.signals[name])[::2], np.asarray(other.signals[name])
+        a, b = np.asarray(every.signals[name])[:, ::2], np.asarray(other.signals[name])
         scale = np.max(np.abs(b))
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-13 * scale, err_msg=name)

@@ -86,10 +86,10 @@ def integrate(closed_loop: AbstractClosedLoop, x0: PyTree[Array], sim: Simulatio
     `sim.performance.scalarize` must already be decided (`Performance.resolve`).
 
     The signals of a save time are those of the state after that time's updates. When every
-    step saves, under continuous control, with a solver that `takes_start_derivative`, on the
-    plain (unscalarized) loop, step $i$ computes the signals of $t_i$ with the flight-software
-    outputs its first stage uses (one evaluation for both); otherwise each save interval
-    computes them at its end.
+    step saves, under continuous control, with a solver that `takes_start_derivative`, step
+    $i$ computes the signals of $t_i$ with the flight-software outputs its first stage uses
+    (one evaluation for both), scalarized or not; otherwise each save interval computes them
+    at its end.
     """
     return _run(closed_loop, x0, sim, None)
 
@@ -190,6 +190,8 @@ def _run(closed_loop, x0, sim, stream):
     if stream is not None:
         start = observe_at_start if shares_first_stage else None
         return _run_streaming(closed_loop, sim, stream, one_step, sample, time, carry0, start)
+    if shares_first_stage:
+        return _run_saving_every_step(closed_loop, sim, one_step, observe_at_start, time, carry0)
     if sim.performance.scalarize:
         # The time loop runs on scalar entries (a struct of arrays under vmap): `._scalarize`.
         flat0, step, unflatten = scalarized_loop_step(
@@ -206,29 +208,6 @@ def _run(closed_loop, x0, sim, stream):
 
     every = sim.save_every
     n_intervals = sim.n_steps // every
-
-    def prepend(first, rest):
-        return jnp.concatenate([first[None], rest], axis=0)
-
-    if shares_first_stage and not sim.performance.scalarize:
-        # The signals of t_i are saved by step i; those of the last time after the loop.
-        def save_step(carry, i):
-            signals, start_derivative = observe_at_start(closed_loop, carry[0], i)
-            carry = one_step(closed_loop, carry, i, start_derivative)
-            return carry, (carry[0], signals)
-
-        carry, (ys, signals) = _scan_intervals(save_step, carry0, n_intervals, sim)
-        y, *_, status, failure_time, events = carry
-        last = closed_loop.signals(time(sim.n_steps), y, None)
-        signals = jtu.tree_map(lambda rest, x: jnp.concatenate([rest, x[None]]), signals, last)
-        return Trajectory(
-            ts=time(jnp.arange(n_intervals + 1)),
-            states=jtu.tree_map(prepend, y0, ys),
-            signals=signals,
-            status=status,
-            failure_time=failure_time,
-            events=events,
-        )
 
     def save_interval(flat, j):
         flat, _ = lax.scan(step, flat, j * every + jnp.arange(every))
@@ -250,8 +229,55 @@ def _run(closed_loop, x0, sim, stream):
     signals0 = closed_loop.signals(time(0), y0, held0)
     return Trajectory(
         ts=time(jnp.arange(n_intervals + 1) * every),
-        states=jtu.tree_map(prepend, y0, ys),
-        signals=jtu.tree_map(prepend, signals0, signals),
+        states=jtu.tree_map(_prepend, y0, ys),
+        signals=jtu.tree_map(_prepend, signals0, signals),
+        status=status,
+        failure_time=failure_time,
+        events=events,
+    )
+
+
+def _prepend(first, rest):
+    return jnp.concatenate([first[None], rest], axis=0)
+
+
+def _append(rest, last):
+    return jnp.concatenate([rest, last[None]], axis=0)
+
+
+def _run_saving_every_step(closed_loop, sim, one_step, observe_at_start, time, carry0):
+    """[`integrate`][]'s loop when every step saves and shares its first stage: step $i$ saves
+    the signals of $t_i$ (with $y_{i+1}$); the signals of the last time come after the loop."""
+
+    def save_step(loop, carry, i):
+        signals, start_derivative = observe_at_start(loop, carry[0], i)
+        carry = one_step(loop, carry, i, start_derivative)
+        return carry, (carry[0], signals)
+
+    if sim.performance.scalarize:
+        flat0, body, unflatten, unflatten_outputs = scalarized_loop_step(
+            save_step, closed_loop, carry0, sim.performance.limits, outputs=True
+        )
+    else:
+        flat0 = carry0
+
+        def body(carry, i):
+            return save_step(closed_loop, carry, i)
+
+        def unflatten(carry):
+            return carry
+
+        def unflatten_outputs(stacked):
+            return stacked
+
+    flat, stacked = _scan_intervals(body, flat0, sim.n_steps, sim)
+    ys, signals = unflatten_outputs(stacked)
+    y, *_, status, failure_time, events = unflatten(flat)
+    last = closed_loop.signals(time(sim.n_steps), y, None)
+    return Trajectory(
+        ts=time(jnp.arange(sim.n_steps + 1)),
+        states=jtu.tree_map(_prepend, carry0[0], ys),
+        signals=jtu.tree_map(_append, signals, last),
         status=status,
         failure_time=failure_time,
         events=events,

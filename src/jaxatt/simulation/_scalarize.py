@@ -461,12 +461,17 @@ def from_flat(flat: tuple, spec: tuple):
 
 
 def scalarized_loop_step(
-    step: Callable, module, carry0, limits: Limits = DEFAULT_LIMITS
-) -> tuple[tuple, Callable, Callable]:
+    step: Callable, module, carry0, limits: Limits = DEFAULT_LIMITS, *, outputs: bool = False
+) -> tuple:
     r"""A `lax.scan` body for `carry = step(module, carry, i)` that runs on scalar entries.
 
     **Returns:** `(flat0, body, unflatten)`: the initial scan carry (`carry0` as a flat tuple of
     scalars), the scan body `(flat, i) -> (flat, None)`, and `unflatten(flat) -> carry`.
+
+    With `outputs=True`, `step` returns `(carry, out)` and the body `(flat, flat_out)`, the
+    outputs as scalars too; a fourth function, `unflatten_outputs(stacked)`, re-assembles what
+    `lax.scan` stacked of them (each leaf gets the scan's axis first, as `lax.scan` would give
+    for `step`'s own outputs).
 
     The body's forward pass is `step` scalarized. Its derivative rule (a `jax.custom_jvp`) is
     the JVP of `step` itself on re-assembled arrays: differentiating the scalarized program
@@ -481,20 +486,44 @@ def scalarized_loop_step(
     def unflatten(flat):
         return pack_tree(from_flat(flat, spec), carry0)
 
+    def to_scalars(result):
+        if not outputs:
+            return to_flat(split_tree(result, limits))[0]
+        new, out = result
+        return to_flat(split_tree(new, limits))[0], to_flat(split_tree(out, limits))[0]
+
     def plain(p, flat, i):
-        new = step(eqx.combine(p, static), unflatten(flat), i)
-        return to_flat(split_tree(new, limits))[0]
+        return to_scalars(step(eqx.combine(p, static), unflatten(flat), i))
 
     @jax.custom_jvp
     def fast(p, flat, i):
-        flat_out = scalar_step(split_tree(p, limits), from_flat(flat, spec), split(i, limits))
-        return to_flat(flat_out)[0]
+        result = scalar_step(split_tree(p, limits), from_flat(flat, spec), split(i, limits))
+        if not outputs:
+            return to_flat(result)[0]
+        new, out = result
+        return to_flat(new)[0], to_flat(split_tree(out, limits))[0]
 
     @fast.defjvp
     def _fast_jvp(primals, tangents):
         return jax.jvp(plain, primals, tangents)
 
     def body(flat, i):
-        return fast(params, flat, i), None
+        result = fast(params, flat, i)
+        return result if outputs else (result, None)
 
-    return flat0, body, unflatten
+    if not outputs:
+        return flat0, body, unflatten
+    out_shape = jax.eval_shape(lambda c: step(module, c, 0)[1], carry0)
+    out_treedef = jtu.tree_structure(out_shape)
+
+    def unflatten_outputs(stacked):
+        leaves = []
+        for entries, like in zip(stacked, jtu.tree_leaves(out_shape)):
+            if math.prod(like.shape) > limits.max_size:
+                leaves.append(entries)  # kept whole: already (steps, *shape)
+            else:
+                columns = jnp.stack(entries, axis=-1).astype(like.dtype)
+                leaves.append(columns.reshape(*columns.shape[:-1], *like.shape))
+        return jtu.tree_unflatten(out_treedef, leaves)
+
+    return flat0, body, unflatten, unflatten_outputs
