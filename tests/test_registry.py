@@ -17,6 +17,7 @@ import re
 
 import equinox as eqx
 import jax
+import jax.extend.core as jex
 import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
@@ -407,6 +408,66 @@ def test_the_registry_covers_every_public_plant_controller_observer_and_actuator
     assert {MRPState, QuaternionState} <= {
         make_x0s().__class__ for _, make_x0s, _ in CASES.values()
     }
+
+
+def _repeated_calls(jaxpr, primitive: str) -> int:
+    """How many `primitive` equations of `jaxpr` repeat an earlier one on the same inputs
+    (value numbering, through nested `jit` calls)."""
+    numbers, repeats = {}, 0
+
+    def key(var, env):
+        if isinstance(var, jex.Literal):
+            return ("literal", repr(var.val))
+        return env.get(var, ("var", id(var)))
+
+    def walk(jaxpr, inputs):
+        nonlocal repeats
+        env = dict(zip(jaxpr.invars, inputs))
+        for eqn in jaxpr.eqns:
+            ins = tuple(key(v, env) for v in eqn.invars)
+            if eqn.primitive.name in ("pjit", "jit", "closed_call"):
+                inner = eqn.params.get("jaxpr") or eqn.params.get("call_jaxpr")
+                inner = inner.jaxpr if isinstance(inner, jex.ClosedJaxpr) else inner
+                env.update(zip(eqn.outvars, walk(inner, list(ins))))
+                continue
+            if eqn.primitive.name == "custom_jvp_call":
+                params = str(eqn.params["call_jaxpr"])
+            else:
+                params = repr(
+                    sorted(
+                        (k, repr(v))
+                        for k, v in eqn.params.items()
+                        if not isinstance(v, jex.ClosedJaxpr | jex.Jaxpr | tuple)
+                    )
+                )
+            signature = (eqn.primitive.name, params, ins)
+            if signature in numbers and eqn.primitive.name == primitive:
+                repeats += 1
+            number = numbers.setdefault(signature, len(numbers))
+            env.update((out, ("value", number, k)) for k, out in enumerate(eqn.outvars))
+        return [key(v, env) for v in jaxpr.outvars]
+
+    walk(jaxpr, [("input", k) for k in range(len(jaxpr.invars))])
+    return repeats
+
+
+def test_no_library_closed_loop_evaluates_a_power_twice_on_the_same_inputs():
+    """Every |x|^a of the laws is `jaxatt.numerics.sig_pow`, a `jax.custom_jvp` call, and XLA
+    does not always merge two calls on the same inputs: `RateConstrainedFiniteTimeMRP`
+    computed chi(v) twice, and its compiled Monte Carlo step held 69 `exp`s instead of 57
+    (1.11-1.15x slower; benchmarks/README.md). A component computes each power once and
+    passes it on. Checked on the jaxpr of one vector-field evaluation; nothing compiled."""
+    repeated = {}
+    for name, (make_loop, make_x0s, _) in CASES.items():
+        if name.startswith("stand-in"):
+            continue
+        loop = make_loop()
+        y0 = loop.init(0.0, _index(make_x0s(), 0))
+        jaxpr = jax.make_jaxpr(lambda y, loop=loop: loop.vector_field(0.1, y, None))(y0).jaxpr
+        count = _repeated_calls(jaxpr, "custom_jvp_call")
+        if count:
+            repeated[name] = count
+    assert repeated == {}
 
 
 def test_no_library_closed_loop_calls_lapack_in_its_step():

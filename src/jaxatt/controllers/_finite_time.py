@@ -294,9 +294,11 @@ class RateConstrainedFiniteTimeMRP(AbstractController):
     def barrier_gain(self, v: Vec3) -> Scalar:
         """$M^{1+\\alpha_2}/\\max(|M^{1+\\alpha_2} - \\chi(v)|, g M^{1+\\alpha_2})$, the factor
         multiplying $k_2$ (1 at $v = 0$, at most $1/g$)."""
-        level = self.barrier_level
-        gap = jnp.maximum(jnp.abs(level - self.chi(v)), self.guard * level)
-        return level / gap
+        return self._gain(self.chi(v), self.barrier_level)
+
+    def _gain(self, chi: Scalar, level: Scalar) -> Scalar:
+        """[`barrier_gain`][] from $\\chi(v)$ and $M^{1+\\alpha_2}$."""
+        return level / jnp.maximum(jnp.abs(level - chi), self.guard * level)
 
     def inside_barrier(
         self, measurement: MRPState, reference: AttitudeReference
@@ -343,12 +345,13 @@ class RateConstrainedFiniteTimeMRP(AbstractController):
         del t
         errors = _errors(measurement, reference)
         v = errors.v
+        chi, level = self.chi(v), self.barrier_level  # each computed once
         tau = (
             -_attitude_term(self.k1, self.alpha1, errors.e)
-            - self.k2 * self.barrier_gain(v) * sig_pow(v, self.alpha2)
+            - self.k2 * self._gain(chi, level) * sig_pow(v, self.alpha2)
             + _feedforward(self.inertia, measurement.omega, errors)
         )
-        inside = self.barrier_ratio(v) < 1
+        inside = chi / level < 1  # barrier_ratio(v) < 1
         time_dot = jnp.where(inside, 1.0, 0.0).astype(state.time_inside.dtype)
         return tau, RateBarrierState(time_inside=time_dot)
 

@@ -273,13 +273,14 @@ class SafeApproachSlidingMode(AbstractController):
             where, "target position reference.translation.position", reference.translation.position
         )
 
-    def _kinematic_command(self, e1, e2, state: ChannelState, barrier, barrier_rate):
-        r"""The surface's position part $\kappa$ (so $s = e_2 + \kappa$) and its rate."""
+    def _kinematic_command(self, e1, e2, power, state: ChannelState, barrier, barrier_rate):
+        r"""The surface's position part $\kappa$ (so $s = e_2 + \kappa$) and its rate;
+        `power` is $\mathrm{sig}^\gamma(e_1)$."""
         if self.surface == "integral":
             w = self.k1 * e1 + self.k2 * state.integral
-            w_dot = self.k1 * e2 + self.k2 * sig_pow(e1, self.gamma)
+            w_dot = self.k1 * e2 + self.k2 * power
         else:
-            w = self.k1 * e1 + self.k2 * sig_pow(e1, self.gamma)
+            w = self.k1 * e1 + self.k2 * power
             slope = self.gamma * jnp.maximum(jnp.abs(e1), self.floor) ** (self.gamma - 1.0)
             w_dot = self.k1 * e2 + self.k2 * slope * e2
         kappa, kappa_dot = w + barrier, w_dot + barrier_rate
@@ -289,8 +290,10 @@ class SafeApproachSlidingMode(AbstractController):
         c = 1.0 / jnp.sqrt(1.0 + (kappa @ kappa) / v2)
         return c * kappa, c * kappa_dot - c**3 * (kappa @ kappa_dot) / v2 * kappa
 
-    def _channel(self, e1, e2, drift, state: ChannelState, surface_term, surface_rate, extra):
-        kappa, kappa_dot = self._kinematic_command(e1, e2, state, surface_term, surface_rate)
+    def _channel(
+        self, e1, e2, power, drift, state: ChannelState, surface_term, surface_rate, extra
+    ):
+        kappa, kappa_dot = self._kinematic_command(e1, e2, power, state, surface_term, surface_rate)
         s = e2 + kappa
         z = s - state.eta
         v = (
@@ -303,14 +306,14 @@ class SafeApproachSlidingMode(AbstractController):
         )
         return s, v
 
-    def _channel_rates(self, e1, s, delta, state: ChannelState) -> ChannelState:
+    def _channel_rates(self, power, s, delta, state: ChannelState) -> ChannelState:
         eta = state.eta
         eta_dot = -self.k_eta * eta + delta
         if self.template_auxiliary:
             gain = (jnp.abs(s @ delta) + 0.5 * delta @ delta) / jnp.maximum(eta @ eta, self.mu**2)
             eta_dot = eta_dot - gain * eta
         d_dot = self.P1 * safe_norm(s) - self.P2 * state.d_hat
-        return ChannelState(sig_pow(e1, self.gamma), eta_dot, d_dot)
+        return ChannelState(power, eta_dot, d_dot)
 
     def _laws(self, t, y: ProximityState, r: PoseReference, state: SafeApproachState):
         model, orbit, att = self.model, y.orbit, y.attitude
@@ -320,9 +323,12 @@ class SafeApproachSlidingMode(AbstractController):
         b, b_dot = self._barrier_and_rate(orbit.rho, orbit.rho_dot)
         zero = jnp.zeros(3)
         in_surface = self.avoidance == "surface"
+        # sig^gamma(e_1) of each channel, computed once for the surface and the integral.
+        power_f = sig_pow(e1, self.gamma)
         s_f, v_f = self._channel(
             e1,
             e2,
+            power_f,
             drift,
             state.translation,
             b if in_surface else zero,
@@ -335,14 +341,17 @@ class SafeApproachSlidingMode(AbstractController):
         # Attitude (MRP coordinates).
         sigma, g, g_dot, a1, a2, sdd = self._attitude_errors(y, r)
         inertia = model.body.inertia
-        s_t, v_t = self._channel(a1, a2, g_dot @ att.omega - sdd, state.attitude, zero, zero, zero)
+        power_t = sig_pow(a1, self.gamma)
+        s_t, v_t = self._channel(
+            a1, a2, power_t, g_dot @ att.omega - sdd, state.attitude, zero, zero, zero
+        )
         g_inv = g.T / (0.25 * (1.0 + sigma @ sigma)) ** 2
         tau_cmd = skew(att.omega) @ (inertia @ att.omega) + inertia @ (g_inv @ v_t)
         torque = jnp.clip(tau_cmd, -self.torque_limit, self.torque_limit)
         delta_t = g @ solve3(inertia, torque - tau_cmd)
         rates = SafeApproachState(
-            self._channel_rates(e1, s_f, delta_f, state.translation),
-            self._channel_rates(a1, s_t, delta_t, state.attitude),
+            self._channel_rates(power_f, s_f, delta_f, state.translation),
+            self._channel_rates(power_t, s_t, delta_t, state.attitude),
         )
         extras = dict(
             s_translation=s_f,
