@@ -324,6 +324,8 @@ def _run_streaming(
             new = strm.update(state, time(i), signals)
             return one_step(loop, inner, i, start_derivative), keep_initial(i, new, state)
         if every == 1:
+            # Every step saves (a hold, or a solver without `start_derivative`): update
+            # unconditionally.
             state = keep_initial(i, update(loop, strm, inner, state, i), state)
         else:
             state = lax.cond(

@@ -497,11 +497,9 @@ def scalarized_loop_step(
 
     @jax.custom_jvp
     def fast(p, flat, i):
-        result = scalar_step(split_tree(p, limits), from_flat(flat, spec), split(i, limits))
-        if not outputs:
-            return to_flat(result)[0]
-        new, out = result
-        return to_flat(new)[0], to_flat(split_tree(out, limits))[0]
+        return to_scalars(
+            scalar_step(split_tree(p, limits), from_flat(flat, spec), split(i, limits))
+        )
 
     @fast.defjvp
     def _fast_jvp(primals, tangents):
