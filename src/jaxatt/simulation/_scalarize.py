@@ -11,7 +11,8 @@ ran 5-10x faster on a 2-core CPU (benchmarks/README.md).
 [`scalarize`][] gets that layout automatically. It traces the function to a jaxpr and
 re-evaluates it with every small array held as a NumPy object array of *scalar* JAX values:
 
-- elementwise primitives (`add`, `mul`, `sin`, `select_n`, ...) are applied entry by entry;
+- elementwise primitives (`add`, `mul`, `sin`, `select_n`, integer shifts, `bitcast_convert_type`
+  between types of one width, ...) are applied entry by entry;
 - structural primitives (`slice`, `concatenate`, `reshape`, `broadcast_in_dim`, `transpose`,
   `squeeze`, `stack`, ...) only rearrange the object arrays and emit nothing;
 - `dot_general` and the `reduce_*` primitives become explicit sums (maxima, ...) of scalars,
@@ -109,10 +110,19 @@ _ELEMENTWISE = {
         "abs acos acosh add and asin asinh atan atan2 atanh cbrt ceil clamp convert_element_type "
         "copy copy_p cos cosh div eq erf erf_inv erfc exp exp2 expm1 floor ge gt imag "
         "integer_pow is_finite le log log1p logistic lt max min mul ne neg nextafter not or pow "
-        "real reduce_precision rem round rsqrt select_n sign sin sinh sqrt square "
+        "real reduce_precision rem round rsqrt select_n shift_left shift_right_arithmetic "
+        "shift_right_logical sign sin sinh sqrt square "
         "stop_gradient sub tan tanh xor"
     ).split()
 }
+
+
+def _is_elementwise_bitcast(eqn) -> bool:
+    # Reinterpreting bits between types of one width (float64 <-> int64) keeps the shape.
+    return (
+        eqn.primitive.name == "bitcast_convert_type"
+        and eqn.outvars[0].aval.shape == eqn.invars[0].aval.shape
+    )
 
 
 def _elementwise(prim, params, args):
@@ -355,7 +365,7 @@ def _eval_eqn(eqn, invals, limits: Limits):
             return out
     if invals and all(_is_split(v) for v in invals):
         params = dict(eqn.params)
-        if name in _ELEMENTWISE:
+        if name in _ELEMENTWISE or _is_elementwise_bitcast(eqn):
             with eqn.ctx.manager:
                 return [_elementwise(eqn.primitive, params, invals)]
         rule = _STRUCTURAL.get(name)
