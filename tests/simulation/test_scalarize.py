@@ -12,7 +12,7 @@ import jax.tree_util as jtu
 import numpy as np
 import pytest
 
-from jaxatt.numerics import sig_pow, solve3
+from jaxatt.numerics import sig_pow, solve3, vectorized_log
 from jaxatt.plants import MRPState
 from jaxatt.rotations import mrp_kinematics, mrp_to_dcm, quat_from_axis_angle, quat_multiply
 from jaxatt.scenarios import chen2022_two_phase_power as chen
@@ -61,6 +61,7 @@ J = jnp.array([[20.0, 1.2, 0.9], [1.2, 17.0, 1.4], [0.9, 1.4, 15.0]])
         (lambda a: lax.cond(a[0] > 0, lambda x: 2 * x, lambda x: x - 1, a), (Q,)),
         (lambda a: lax.optimization_barrier((a, 2 * a)), (SIGMA,)),
         (lambda a: sig_pow(a, 0.5), (jnp.array([0.3, 0.0, -0.7]),)),
+        (vectorized_log, (jnp.array([0.3, 1e-310, 7.0]),)),  # integer shifts and bitcasts
     ],
     ids=lambda x: getattr(x, "__name__", None) if callable(x) else "",
 )
@@ -214,6 +215,9 @@ def test_vmapped_scalarized_simulation_lowers_to_elementwise_code(m1):
     assert " dot(" in step_loop_hlo(False)  # what the test guards against
     fast = step_loop_hlo(True)
     assert " dot(" not in fast and " transpose(" not in fast
+    # The powers' logarithm (integer and float arithmetic on the bits) is scalarized too: no
+    # packed (batch, 3) array in the step, and no C-library `log` call per element.
+    assert "[8,3]" not in fast and " log(" not in fast
 
 
 def test_large_matrix_products_stay_packed():

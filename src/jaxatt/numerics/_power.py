@@ -4,6 +4,8 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
+from ._log import vectorized_log
+
 
 def _slope_floor(dtype) -> Array:
     return jnp.sqrt(jnp.finfo(dtype).eps).astype(dtype)
@@ -14,17 +16,19 @@ def _abs_pow_primal(ax: Array, a: Array) -> Array:
 
     `exp(a * log(x))` is 1.6x cheaper than XLA:CPU's `pow` per element (benchmarks/README.md)
     and equal to it to a few ulps: the relative error is about $(1 + |a \ln x|)\,\varepsilon$.
-    Double where: the masked input keeps `log 0` (and its derivatives) out of the graph.
+    The logarithm is [`vectorized_log`][jaxatt.numerics.vectorized_log] (XLA:CPU's float64 `log`
+    is a scalar library call per element). Double where: the masked input keeps `log 0` (and its
+    derivatives) out of the graph.
     """
     positive = ax > 0
     safe_ax = jnp.where(positive, ax, 1)
-    power = jnp.exp(a * jnp.log(safe_ax))
+    power = jnp.exp(a * vectorized_log(safe_ax))
     return jnp.where(positive, power, jnp.where(a == 0, 1, 0).astype(ax.dtype))
 
 
 def _log_abs(ax: Array) -> Array:
     positive = ax > 0
-    return jnp.where(positive, jnp.log(jnp.where(positive, ax, 1)), 0)
+    return jnp.where(positive, vectorized_log(jnp.where(positive, ax, 1)), 0)
 
 
 @jax.custom_jvp
