@@ -20,7 +20,8 @@ def samples() -> dict[str, np.ndarray]:
     return {
         # log-uniform over the normal range: every exponent k
         "normal": 10.0 ** rng.uniform(-307.6, 308.2, 50_000),
-        # both of fdlibm's assemblies (the switch at m = 1 - 0.0796 and 1 + 0.1053) and f ~ 0
+        # both of fdlibm's assemblies (f*f/2 split off for x in (0.69, 0.71) and (1.38, 1.42)),
+        # f ~ 0
         "near one": np.concatenate(near_one),
         # subnormals: integer mantissas 1 .. 2^52 - 1 reinterpreted as float64
         "subnormal": rng.integers(1, 2**52, 20_000).view(np.float64),

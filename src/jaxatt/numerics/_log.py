@@ -4,9 +4,9 @@ XLA:CPU lowers a float64 `log` to a call of the C library's scalar `log`, once p
 the call cannot be vectorized, and in a batched closed loop whose powers are
 $|x|^a = \exp(a \ln|x|)$ it took 8.9 % of the run time (Chen 2022 M1, batch 10^4;
 benchmarks/README.md). `exp` has no such problem: XLA inlines its own vectorizable
-approximation. [`vectorized_log`][] is fdlibm's `__ieee754_log` (Sun Microsystems, 1993; the
-algorithm of glibc's and musl's former `log`) written as elementwise integer and float
-operations, which fuse and vectorize like the rest of the step.
+approximation. [`vectorized_log`][] is fdlibm's `__ieee754_log` (Sun Microsystems, 1993; still
+FreeBSD's `log`) written as elementwise integer and float operations, which fuse and vectorize
+like the rest of the step.
 """
 
 import jax
@@ -18,7 +18,8 @@ from jaxtyping import Array, ArrayLike, Float
 # ln 2 split so that k * _LN2_HI is exact for |k| < 2^11 (fdlibm).
 _LN2_HI = 6.93147180369123816490e-01
 _LN2_LO = 1.90821492927058770002e-10
-# fdlibm's minimax coefficients of (log(1+f) - 2s)/s, s = f/(2+f), in powers of s^2 (|error| < 2^-58.45).
+# fdlibm's minimax coefficients of R(z) ~ (log(1+f) - 2s)/s, s = f/(2+f), z = s^2
+# (|error| < 2^-58.45).
 _LG1 = 6.666666666666735130e-01
 _LG2 = 3.999999999940941908e-01
 _LG3 = 2.857142874366239149e-01
@@ -47,10 +48,11 @@ def _log_float64(x: Array) -> Array:
     high = bits >> 32
     k = (high >> 20) - jnp.where(subnormal, 1023 + 1074, 1023)
     high = high & 0x000F_FFFF
-    # Scale the significand m into [sqrt(2)/2, sqrt(2)) and count the halving in k.
-    i = (high + 0x95F64) & 0x10_0000
-    k = k + (i >> 20)
-    m_bits = ((high | (i ^ 0x3FF0_0000)) << 32) | (bits & 0xFFFF_FFFF)
+    # The significand m in [1, 2) is halved when m >= sqrt(2) (`halve` is then 2^20 and carries
+    # into k), so that m in [sqrt(2)/2, sqrt(2)).
+    halve = (high + 0x95F64) & 0x10_0000
+    k = k + (halve >> 20)
+    m_bits = ((high | (halve ^ 0x3FF0_0000)) << 32) | (bits & 0xFFFF_FFFF)
     f = lax.bitcast_convert_type(m_bits, jnp.float64) - 1.0
     # log(1 + f) = 2s + s R(s^2), s = f / (2 + f), |s| < 0.1716.
     s = f / (2.0 + f)
@@ -59,13 +61,14 @@ def _log_float64(x: Array) -> Array:
     r = z * (_LG1 + w * (_LG3 + w * (_LG5 + w * _LG7))) + w * (_LG2 + w * (_LG4 + w * _LG6))
     dk = lax.convert_element_type(k, jnp.float64)
     half_f_squared = 0.5 * f * f
-    # fdlibm's two assemblies: f*f/2 is subtracted exactly for m outside [1 - 0.0796, 1 + 0.1053).
-    far_from_one = ((high - 0x6147A) | (0x6B851 - high)) > 0
-    log_far = dk * _LN2_HI - (
+    # fdlibm's two assemblies of the same sum: f*f/2 split off where |f| is largest (significands
+    # in (1.38, 1.42) before the halving, f in (0.38, 0.414) or (-0.293, -0.29)), else not.
+    largest_f = ((high - 0x6147A) | (0x6B851 - high)) > 0
+    log_largest_f = dk * _LN2_HI - (
         (half_f_squared - (s * (half_f_squared + r) + dk * _LN2_LO)) - f
     )
-    log_near = dk * _LN2_HI - ((s * (f - r) - dk * _LN2_LO) - f)
-    value = jnp.where(far_from_one, log_far, log_near)
+    log_other_f = dk * _LN2_HI - ((s * (f - r) - dk * _LN2_LO) - f)
+    value = jnp.where(largest_f, log_largest_f, log_other_f)
     # IEEE special values: log(+inf) = +inf, log(nan) = nan, log(x < 0) = nan, log(+-0) = -inf.
     value = jnp.where(magnitude >= _INF_BITS, x, value)
     value = jnp.where(negative & (magnitude != 0), jnp.nan, value)
