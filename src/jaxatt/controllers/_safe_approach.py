@@ -52,7 +52,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from .._validation import check_nonnegative, check_positive, check_spd
-from ..numerics import safe_norm, sig_pow, solve3
+from ..numerics import safe_norm, sig_pow, solve3, vectorized_log
 from ..plants import Proximity, ProximityState
 from ..references import PoseReference
 from ..rotations import mrp_from_quat, mrp_kinematics_matrix, skew
@@ -281,7 +281,9 @@ class SafeApproachSlidingMode(AbstractController):
             w_dot = self.k1 * e2 + self.k2 * power
         else:
             w = self.k1 * e1 + self.k2 * power
-            slope = self.gamma * jnp.maximum(jnp.abs(e1), self.floor) ** (self.gamma - 1.0)
+            # gamma |e1|^(gamma - 1) with |e1| floored (> 0): no C-library pow call per element
+            floored = jnp.maximum(jnp.abs(e1), self.floor)
+            slope = self.gamma * jnp.exp((self.gamma - 1.0) * vectorized_log(floored))
             w_dot = self.k1 * e2 + self.k2 * slope * e2
         kappa, kappa_dot = w + barrier, w_dot + barrier_rate
         if self.velocity_limit is None:

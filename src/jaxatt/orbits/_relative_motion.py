@@ -34,6 +34,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
 from ._constants import MU_EARTH
+from ._gravity import point_mass_gravity
 
 
 # --- The target's orbit ----------------------------------------------------------------------
@@ -82,8 +83,9 @@ def relative_gravity(
     rho = jnp.asarray(rho)
     r_t, _, _ = anomaly_rates(theta, a, e, mu)
     rel = rho + jnp.stack([r_t, jnp.zeros_like(r_t), jnp.zeros_like(r_t)])
-    r_c3 = jnp.sum(rel**2) ** 1.5
-    return -mu * rel / r_c3 + jnp.stack([mu / r_t**2, jnp.zeros_like(r_t), jnp.zeros_like(r_t)])
+    return point_mass_gravity(rel, mu) + jnp.stack(
+        [mu / r_t**2, jnp.zeros_like(r_t), jnp.zeros_like(r_t)]
+    )
 
 
 def linear_relative_gravity(

@@ -44,7 +44,7 @@ from .._validation import (
 )
 from ..metrics import AbstractMetric, MaxAbs, Peak, SettlingTime
 from ..numerics import inv3, solve3
-from ..orbits import MU_EARTH
+from ..orbits import MU_EARTH, point_mass_gravity
 from ..rotations import mrp_from_dcm, mrp_kinematics_matrix, mrp_switch, mrp_to_dcm
 from ..signals import AbstractSignal, Constant, check_signal_shape
 from ._base import AbstractPlant
@@ -225,8 +225,8 @@ class RelativePoseModel(eqx.Module):
         l2 = m_p * p_e @ jnp.cross(self.offset, target_accel)
         l3 = m_p * (
             -p_e @ f_td / m_t
-            - self.mu * r_p / jnp.sum(r_p**2) ** 1.5
-            + p_e @ (self.mu * r_t / jnp.sum(r_t**2) ** 1.5)
+            + point_mass_gravity(r_p, self.mu)
+            - p_e @ point_mass_gravity(r_t, self.mu)
         )
         l4 = -jnp.cross(omega_p, j_p @ omega_p) - j_p @ jnp.cross(omega_p, state.rate)
         l5 = -j_p @ (p_e @ target_accel)
@@ -238,9 +238,7 @@ class RelativePoseModel(eqx.Module):
         \tau_{td}$ (inertial position and velocity, body rate)."""
         c_t = mrp_to_dcm(target.attitude)
         r = target.position
-        accel = (
-            -self.mu * r / jnp.sum(r**2) ** 1.5 + c_t.T @ self.target_force(t) / self.target_mass
-        )
+        accel = point_mass_gravity(r, self.mu) + c_t.T @ self.target_force(t) / self.target_mass
         j_t = self.target_inertia
         omega = target.rate
         return TargetState(
