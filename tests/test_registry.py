@@ -493,3 +493,46 @@ def test_no_library_closed_loop_calls_lapack_in_its_step():
     # The check can fail: a LAPACK call in a step is seen.
     solve = jax.jit(lambda a, b: jnp.linalg.solve(a, b)).lower(jnp.eye(3), jnp.ones(3))
     assert re.search(r"custom_call @\w*lapack", solve.as_text())
+
+
+# Float64 functions XLA:CPU compiles to a C-library call per element (measured with `perf`,
+# docs/performance.md), one element at a time between the step's vectorized kernels.
+_SCALAR_LIBRARY_CALLS = ("log", "log1p", "pow")
+
+
+def _batched_primitives(jaxpr, batch: int, found: set[str]) -> set[str]:
+    for eqn in jaxpr.eqns:
+        if any(getattr(v.aval, "shape", ())[:1] == (batch,) for v in eqn.outvars):
+            found.add(eqn.primitive.name)
+        for param in eqn.params.values():
+            inner = getattr(param, "jaxpr", param)
+            if hasattr(inner, "eqns"):
+                _batched_primitives(inner, batch, found)
+    return found
+
+
+def test_no_library_closed_loop_takes_a_library_log_or_pow_of_its_state():
+    """The powers take their logarithm from `jaxatt.numerics.vectorized_log`, gravity its
+    |r|^3 from a square root: in a batch, no float64 `log`, `log1p` or `pow` of a sample's
+    values is left in any library closed loop's vector field (those of time alone are computed
+    once per step for the whole batch and do not count). Traced only, nothing compiled."""
+    batch = 7
+    calls = {}
+    for name, (make_loop, make_x0s, _) in CASES.items():
+        if name.startswith("stand-in"):
+            continue
+        loop, x0s = make_loop(), make_x0s()
+        x0s = jax.tree.map(lambda x: jnp.concatenate([x] * 3)[:batch], x0s)
+        ys = jax.vmap(lambda x, loop=loop: loop.init(0.0, x))(x0s)
+        field = jax.vmap(lambda y, loop=loop: loop.vector_field(0.3, y, None))
+        found = _batched_primitives(jax.make_jaxpr(field)(ys).jaxpr, batch, set())
+        if found & set(_SCALAR_LIBRARY_CALLS):
+            calls[name] = sorted(found & set(_SCALAR_LIBRARY_CALLS))
+    assert calls == {}
+    # The check can fail: a power of a sample's value is seen, one of time alone is not.
+    seen = _batched_primitives(
+        jax.make_jaxpr(jax.vmap(lambda x: x**1.5 + jnp.log(0.3) ** 1.5))(jnp.ones(batch)).jaxpr,
+        batch,
+        set(),
+    )
+    assert "pow" in seen and "log" not in seen
