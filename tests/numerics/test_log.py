@@ -1,12 +1,12 @@
 """`vectorized_log`: within 1 ulp of NumPy's log over all of float64, IEEE special values,
-derivatives, and the powers that use it."""
+derivatives, and the powers that use it; `vectorized_atanh` within 2 ulps."""
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxatt.numerics import abs_pow, sig_pow, vectorized_log
+from jaxatt.numerics import abs_pow, sig_pow, vectorized_atanh, vectorized_log
 
 
 def _ulps(value: np.ndarray, reference: np.ndarray) -> np.ndarray:
@@ -106,3 +106,30 @@ def test_float64_powers_and_their_derivatives_call_no_library_log():
     assert "log" not in _primitives(jax.make_jaxpr(powers)(x, a))
     assert "log" not in _primitives(jax.make_jaxpr(jax.grad(powers, argnums=(0, 1)))(x, a))
     assert "log" in _primitives(jax.make_jaxpr(jnp.log)(x))  # what the check looks for
+
+
+def test_vectorized_atanh_within_two_ulps_of_numpy():
+    rng = np.random.default_rng(1)
+    z = np.concatenate(
+        [
+            rng.uniform(-1, 1, 50_000),
+            10.0 ** rng.uniform(-300, -1, 10_000),  # the series
+            rng.uniform(0.29, 0.31, 10_000),  # where the series hands over to the logarithm
+            1 - 10.0 ** rng.uniform(-16, -1, 10_000),  # near the pole
+            -(1 - 10.0 ** rng.uniform(-16, -1, 10_000)),
+        ]
+    )
+    value = np.asarray(jax.jit(vectorized_atanh)(z))
+    assert np.max(_ulps(value, np.arctanh(z))) <= 2.0
+
+
+def test_vectorized_atanh_special_values_and_derivative():
+    x = np.array([0.0, -0.0, 1.0, -1.0, 1.5, -2.0, np.nan])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        reference = np.arctanh(x)
+    value = np.asarray(jax.jit(vectorized_atanh)(x))
+    np.testing.assert_array_equal(value, reference)
+    assert np.signbit(value[1])
+    assert jax.grad(vectorized_atanh)(0.5) == 1 / 0.75
+    x32 = jnp.array([0.3, -0.9], dtype=jnp.float32)
+    np.testing.assert_array_equal(vectorized_atanh(x32), jnp.arctanh(x32))

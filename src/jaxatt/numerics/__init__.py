@@ -21,7 +21,7 @@ from ._linalg import (
     solve3 as solve3,
     spectral_norm as spectral_norm,
 )
-from ._log import vectorized_log as vectorized_log
+from ._log import vectorized_atanh as vectorized_atanh, vectorized_log as vectorized_log
 from ._materialize import materialized as materialized
 from ._norm import safe_norm as safe_norm, safe_normalize as safe_normalize
 from ._power import abs_pow as abs_pow, sig_pow as sig_pow

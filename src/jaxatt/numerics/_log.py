@@ -101,3 +101,46 @@ def _vectorized_log_jvp(primals, tangents):
     (x,), (x_dot,) = primals, tangents
     x = jnp.asarray(x)
     return vectorized_log(x), jnp.asarray(x_dot) / x
+
+
+# atanh z = z sum_n z^(2n) / (2n + 1): 16 terms reach 6e-19 relative for |z| < 0.3.
+_ATANH_SERIES = tuple(1.0 / (2 * n + 1) for n in range(16))
+_ATANH_SERIES_LIMIT = 0.3
+
+
+@jax.custom_jvp
+def vectorized_atanh(x: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
+    r"""Inverse hyperbolic tangent, elementwise, as vectorizable arithmetic.
+
+    For float64 and $|x| \ge 0.3$: $\operatorname{atanh} x = \tfrac12
+    \ln\frac{1 + x}{1 - x}$, the logarithm from [`vectorized_log`][]; below, where that
+    quotient's rounding would cost relative accuracy, the series
+    $x \sum_{n < 16} x^{2n}/(2n + 1)$ (truncated at $6 \times 10^{-19}$ relative). Within a
+    few ulps of NumPy over $(-1, 1)$ (`tests/numerics/test_log.py`); $\pm\infty$ at $\pm 1$,
+    NaN beyond and for NaN. XLA:CPU compiles `jnp.arctanh` to a C-library `log` call per
+    element. Other dtypes go to `jnp.arctanh`.
+
+    (Goldberg's $\ln(1 + y) = \ln(u)\,y/(u - 1)$, $u = 1 + y$, does not survive XLA: its
+    algebraic simplifier rewrites $(1 + y) - 1$ as $y$.)
+
+    **Derivative:** $1/(1 - x^2)$.
+    """
+    x = jnp.asarray(x)
+    if x.dtype != jnp.float64:
+        return jnp.arctanh(x)
+    magnitude = jnp.abs(x)
+    w = x * x
+    series = _ATANH_SERIES[-1]
+    for coefficient in reversed(_ATANH_SERIES[:-1]):
+        series = coefficient + w * series
+    half_log = 0.5 * vectorized_log((1.0 + magnitude) / (1.0 - magnitude))
+    return jnp.where(
+        magnitude < _ATANH_SERIES_LIMIT, x * series, jnp.where(x < 0, -half_log, half_log)
+    )
+
+
+@vectorized_atanh.defjvp
+def _vectorized_atanh_jvp(primals, tangents):
+    (x,), (x_dot,) = primals, tangents
+    x = jnp.asarray(x)
+    return vectorized_atanh(x), jnp.asarray(x_dot) / (1.0 - x * x)

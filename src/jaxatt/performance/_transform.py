@@ -7,6 +7,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from ..metrics import AbstractMetric
+from ..numerics import vectorized_atanh
 
 
 class TransformedError(NamedTuple):
@@ -51,7 +52,7 @@ def transform_error(
     rho = jnp.asarray(rho)
     z = e / rho
     zc = jnp.clip(z, -Z_LIMIT, Z_LIMIT)
-    kappa = jnp.arctanh(zc)
+    kappa = vectorized_atanh(zc)  # jnp.arctanh is a C-library log call per element on CPU
     beta = 1.0 / (rho * (1.0 - zc**2))
     kappa_dot = beta * (jnp.asarray(error_rate) - e * jnp.asarray(rho_dot) / rho)
     return TransformedError(kappa, beta, kappa_dot, z)
