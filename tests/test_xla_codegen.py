@@ -9,18 +9,18 @@ loop (sliding, saturated, |s|^a), a scalarized vmapped batch of it and reverse-m
 of its loss terms, computed here and in a child process under the other configuration (XLA's
 defaults if this process has either setting, both settings if it has neither), must agree.
 
-Both compile the same HLO; only the machine code differs (instruction order, vectorization,
-the inlined math functions, `jaxatt.numerics.vectorized_log` among them). Each result is
-compared relative to its largest component (the final sliding variable's components are 1e-6
-to 3e-4 of a signal that starts near 1). Measured on jaxlib 0.10.2 (2026-12-04): the two
-emitters alone agreed to 2.1e-15, both settings against XLA's defaults to 1.9e-14 (the torque
-after 2000 RK4 steps; the gradient of the reaching law's two powers, evaluated at fixed inputs,
-bit for bit); 1e-12 leaves room for a few more ulps amplified over the 2000 RK4 steps of a
-sliding motion and still catches any real code-generation difference. The law's gradient was
-evaluated at the run's s until `vectorized_log`: the sum of |s|^a ln|s| over components of
-1e-6 that differ between the two processes by 1e-8 of themselves then differed by 2.2e-13
-(libm's log) and 2.3e-12 (`vectorized_log`, which rounds differently at O0 and O2 within its
-1 ulp), a measure of the input's conditioning rather than of code generation.
+Both compile the same HLO; only the machine code differs (instruction order, vectorization, the
+inlined math functions, `jaxatt.numerics.vectorized_log` among them). Each result is compared
+relative to its largest component (the final sliding variable's components are 1e-6 to 3e-4 of
+a signal that starts near 1). Measured on jaxlib 0.10.2 (2026-12-04): the two emitters alone
+agreed to 2.1e-15, both settings against XLA's defaults to 1.4e-14 (the sliding variable after
+2000 RK4 steps; the gradient of the reaching law's two powers, evaluated at fixed inputs, bit
+for bit); 1e-12 leaves room for a few more ulps amplified over the 2000 RK4 steps of a sliding
+motion and still catches any real code-generation difference. The law's gradient was evaluated
+at the run's s until `vectorized_log`: the sum of |s|^a ln|s| over components of 1e-6 that
+differ between the two processes by 1e-8 of themselves then differed by 2.2e-13 (libm's log)
+and 2.3e-12 (`vectorized_log`, which rounds differently at O0 and O2 within its 1 ulp), a
+measure of the input's conditioning rather than of code generation.
 """
 
 import json
