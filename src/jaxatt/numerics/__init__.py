@@ -25,6 +25,11 @@ from ._log import vectorized_atanh as vectorized_atanh, vectorized_log as vector
 from ._materialize import materialized as materialized
 from ._norm import safe_norm as safe_norm, safe_normalize as safe_normalize
 from ._power import abs_pow as abs_pow, sig_pow as sig_pow
+from ._sincos import (
+    vectorized_cos as vectorized_cos,
+    vectorized_sin as vectorized_sin,
+    vectorized_sincos as vectorized_sincos,
+)
 from ._switching import (
     rational_sign as rational_sign,
     sat as sat,
