@@ -410,10 +410,18 @@ def test_the_registry_covers_every_public_plant_controller_observer_and_actuator
     }
 
 
-def _repeated_calls(jaxpr, primitive: str) -> int:
-    """How many `primitive` equations of `jaxpr` repeat an earlier one on the same inputs
-    (value numbering, through nested `jit` calls)."""
-    numbers, repeats = {}, 0
+def _plain(param) -> bool:
+    """A parameter that tells equations apart by its repr (slice indices, dtypes), not a jaxpr."""
+    if isinstance(param, tuple):
+        return all(map(_plain, param))
+    return not isinstance(param, jex.ClosedJaxpr | jex.Jaxpr)
+
+
+def _calls(jaxpr, primitive: str) -> dict[str, tuple[int, int]]:
+    """`{function: (calls, distinct calls)}` of the `primitive` equations of `jaxpr`, keyed by
+    their parameters (a `custom_jvp_call`'s function text), distinct by value numbering through
+    nested `jit` calls: a call repeats an earlier one when it has the same inputs."""
+    numbers, calls = {}, {}
 
     def key(var, env):
         if isinstance(var, jex.Literal):
@@ -421,7 +429,6 @@ def _repeated_calls(jaxpr, primitive: str) -> int:
         return env.get(var, ("var", id(var)))
 
     def walk(jaxpr, inputs):
-        nonlocal repeats
         env = dict(zip(jaxpr.invars, inputs))
         for eqn in jaxpr.eqns:
             ins = tuple(key(v, env) for v in eqn.invars)
@@ -433,22 +440,33 @@ def _repeated_calls(jaxpr, primitive: str) -> int:
             if eqn.primitive.name == "custom_jvp_call":
                 params = str(eqn.params["call_jaxpr"])
             else:
-                params = repr(
-                    sorted(
-                        (k, repr(v))
-                        for k, v in eqn.params.items()
-                        if not isinstance(v, jex.ClosedJaxpr | jex.Jaxpr | tuple)
-                    )
-                )
+                params = repr(sorted((k, repr(v)) for k, v in eqn.params.items() if _plain(v)))
             signature = (eqn.primitive.name, params, ins)
-            if signature in numbers and eqn.primitive.name == primitive:
-                repeats += 1
+            if eqn.primitive.name == primitive:
+                total, distinct = calls.get(params, (0, 0))
+                calls[params] = (total + 1, distinct + (signature not in numbers))
             number = numbers.setdefault(signature, len(numbers))
             env.update((out, ("value", number, k)) for k, out in enumerate(eqn.outvars))
         return [key(v, env) for v in jaxpr.outvars]
 
     walk(jaxpr, [("input", k) for k in range(len(jaxpr.invars))])
-    return repeats
+    return calls
+
+
+def _sincos_text() -> str:
+    """The function text of a float64 scalar `vectorized_sincos` call, as `_calls` keys it."""
+    return str(
+        jax.make_jaxpr(jaxatt.numerics.vectorized_sincos)(jnp.zeros(()))
+        .eqns[0]
+        .params["call_jaxpr"]
+    )
+
+
+def _vector_field_jaxpr(make_loop, make_x0s):
+    loop = make_loop()
+    y0 = loop.init(0.0, _index(make_x0s(), 0))
+    field = lambda y, loop=loop: loop.vector_field(0.1, y, None)  # noqa: E731
+    return field, y0, jax.make_jaxpr(field)(y0).jaxpr
 
 
 def test_no_library_closed_loop_evaluates_a_power_twice_on_the_same_inputs():
@@ -456,48 +474,41 @@ def test_no_library_closed_loop_evaluates_a_power_twice_on_the_same_inputs():
     does not always merge two calls on the same inputs: `RateConstrainedFiniteTimeMRP`
     computed chi(v) twice, and its compiled Monte Carlo step held 69 `exp`s instead of 57
     (1.11-1.15x slower; benchmarks/README.md). A component computes each power once and
-    passes it on. Checked on the jaxpr of one vector-field evaluation; nothing compiled."""
-    repeated = {}
+    passes it on. Checked on the jaxpr of one vector-field evaluation; nothing compiled.
+    (`vectorized_sincos` is left out: XLA merges its repeats, the test below.)"""
+    sincos, repeated = _sincos_text(), {}
     for name, (make_loop, make_x0s, _) in CASES.items():
         if name.startswith("stand-in"):
             continue
-        loop = make_loop()
-        y0 = loop.init(0.0, _index(make_x0s(), 0))
-        jaxpr = jax.make_jaxpr(lambda y, loop=loop: loop.vector_field(0.1, y, None))(y0).jaxpr
-        count = _repeated_calls(jaxpr, "custom_jvp_call")
+        _, _, jaxpr = _vector_field_jaxpr(make_loop, make_x0s)
+        calls = _calls(jaxpr, "custom_jvp_call")
+        count = sum(total - distinct for text, (total, distinct) in calls.items() if text != sincos)
         if count:
             repeated[name] = count
     assert repeated == {}
 
 
-def test_no_library_closed_loop_calls_lapack_in_its_step():
-    """XLA:CPU runs `jnp.linalg.solve`, `inv`, `eigvalsh`, `svd` as a LAPACK call per matrix:
-    per sample and stage in a batch, outside the fused elementwise code (a 6x6 `eigvalsh` made
-    Zhang 2021's Monte Carlo of 1000 samples 2.6-2.9x slower, two 3x3 `solve`s Wu 2018's 1.8x;
-    benchmarks/README.md). The library's closed loops use closed forms (`jaxatt.numerics`);
-    the stand-ins (test code) may do as they like. Lowered only, nothing compiled."""
-    calls = {}
+def test_xla_merges_the_repeated_sines_of_a_closed_loop():
+    """The sines of one angle are asked for by several components of a step (the plant's
+    anomaly rates and gravity, the reference, the controller's model): 5 to 23
+    `vectorized_sincos` calls on 1 to 9 distinct inputs per vector field. XLA's common
+    subexpression elimination merges them: with fusion turned off (fusion copies producers
+    into each consumer, whatever their origin), the compiled vector field holds at most one
+    `round-nearest-even` (the reduction's n = round(2x/pi)) per distinct call."""
+    sincos, checked = _sincos_text(), 0
     for name, (make_loop, make_x0s, _) in CASES.items():
-        if name.startswith("stand-in"):
+        field, y0, jaxpr = _vector_field_jaxpr(make_loop, make_x0s)
+        total, distinct = _calls(jaxpr, "custom_jvp_call").get(sincos, (0, 0))
+        if total <= distinct:
             continue
-        loop, x0 = make_loop(), _index(make_x0s(), 0)
-        run = jax.jit(
-            lambda x, loop=loop: (
-                jaxatt.simulate(loop, x, 0.0, T1, dt=DT, solver=Euler(), throw=False).states
-            )
-        )
-        found = set(re.findall(r"custom_call @(\w*lapack\w*)", run.lower(x0).as_text()))
-        if found:
-            calls[name] = sorted(found)
-    assert calls == {}
-    # The check can fail: a LAPACK call in a step is seen.
-    solve = jax.jit(lambda a, b: jnp.linalg.solve(a, b)).lower(jnp.eye(3), jnp.ones(3))
-    assert re.search(r"custom_call @\w*lapack", solve.as_text())
+        compiled = jax.jit(field).lower(y0).compile({"xla_disable_hlo_passes": "fusion"})
+        rounds = len(re.findall(r"round-nearest-even\(", compiled.as_text()))
+        assert 1 <= rounds <= distinct < total, name
+        checked += 1
+    assert checked >= 3
 
 
-# Float64 functions XLA:CPU compiles to a C-library call per element (measured with `perf`,
-# docs/performance.md), one element at a time between the step's vectorized kernels.
-_SCALAR_LIBRARY_CALLS = ("atanh", "log", "log1p", "pow")
+_SCALAR_LIBRARY_CALLS = ("atanh", "cos", "log", "log1p", "pow", "sin", "tan")
 
 
 def _batched_primitives(jaxpr, batch: int, found: set[str]) -> set[str]:
@@ -511,12 +522,14 @@ def _batched_primitives(jaxpr, batch: int, found: set[str]) -> set[str]:
     return found
 
 
-def test_no_library_closed_loop_takes_a_library_log_atanh_or_pow_of_its_state():
+def test_no_library_closed_loop_takes_a_library_log_atanh_pow_or_sin_of_its_state():
     """The powers take their logarithm from `jaxatt.numerics.vectorized_log`, gravity its
     |r|^3 from a square root, the prescribed-performance transformation its atanh from
-    `vectorized_atanh`: in a batch, no float64 `atanh`, `log`, `log1p` or `pow` of a sample's
-    values is left in any library closed loop's vector field (those of time alone are computed
-    once per step for the whole batch and do not count). Traced only, nothing compiled."""
+    `vectorized_atanh`, anomalies and Euler angles their sines from `vectorized_sincos`: in a
+    batch, no float64 `atanh`, `cos`, `log`, `log1p`, `pow`, `sin` or `tan` of a sample's values
+    is left in any library closed loop's vector field (those of time alone are computed once
+    per step for the whole batch and do not count). Traced only, nothing compiled. (The
+    `arccos` of `eigvalsh3`, in Zhang 2021 and Yue 2018 eq. 22, is left.)"""
     batch = 7
     calls = {}
     for name, (make_loop, make_x0s, _) in CASES.items():

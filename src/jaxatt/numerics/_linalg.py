@@ -17,6 +17,7 @@ from jax import lax
 from jaxtyping import Array, ArrayLike, Float
 
 from ._norm import safe_norm, safe_normalize
+from ._sincos import vectorized_cos
 
 
 def _adjugate3(a: Float[Array, "3 3"]) -> Float[Array, "3 3"]:
@@ -123,8 +124,8 @@ def _smith(m: Float[Array, "3 3"]):
     r = det3(deviation / jnp.where(spread, p, 1)) / 2
     inside = jnp.abs(r) < 1
     phi = jnp.where(inside, jnp.arccos(jnp.where(inside, r, 0)), jnp.where(r >= 1, 0, math.pi)) / 3
-    largest = q + 2 * p * jnp.cos(phi)
-    smallest = q + 2 * p * jnp.cos(phi + 2 * math.pi / 3)
+    largest = q + 2 * p * vectorized_cos(phi)
+    smallest = q + 2 * p * vectorized_cos(phi + 2 * math.pi / 3)
     return r, largest, smallest
 
 

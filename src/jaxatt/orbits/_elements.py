@@ -8,6 +8,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
 from .._validation import is_traced
+from ..numerics import vectorized_sin, vectorized_sincos
 from ._constants import MU_EARTH
 
 
@@ -50,9 +51,9 @@ def _check_elliptic(where: str, a, e) -> None:
 
 def _perifocal_to_inertial(i, raan, argp) -> Float[Array, "3 3"]:
     """$R_3(-\\Omega) R_1(-i) R_3(-\\omega)$: perifocal (P, Q, W) to inertial components."""
-    cO, sO = jnp.cos(raan), jnp.sin(raan)
-    ci, si = jnp.cos(i), jnp.sin(i)
-    cw, sw = jnp.cos(argp), jnp.sin(argp)
+    sO, cO = vectorized_sincos(raan)
+    si, ci = vectorized_sincos(i)
+    sw, cw = vectorized_sincos(argp)
     return jnp.array(
         [
             [cO * cw - sO * sw * ci, -cO * sw - sO * cw * ci, sO * si],
@@ -77,9 +78,10 @@ def elements_to_state(
     a, e, i, raan, argp, nu = (jnp.asarray(x, dtype=float) for x in elements)
     _check_elliptic("elements_to_state", a, e)
     p = a * (1.0 - e**2)
-    radius = p / (1.0 + e * jnp.cos(nu))
-    r_pf = radius * jnp.stack([jnp.cos(nu), jnp.sin(nu), jnp.zeros_like(nu)])
-    v_pf = jnp.sqrt(mu / p) * jnp.stack([-jnp.sin(nu), e + jnp.cos(nu), jnp.zeros_like(nu)])
+    sin_nu, cos_nu = vectorized_sincos(nu)
+    radius = p / (1.0 + e * cos_nu)
+    r_pf = radius * jnp.stack([cos_nu, sin_nu, jnp.zeros_like(nu)])
+    v_pf = jnp.sqrt(mu / p) * jnp.stack([-sin_nu, e + cos_nu, jnp.zeros_like(nu)])
     rotation = _perifocal_to_inertial(i, raan, argp)
     return rotation @ r_pf, rotation @ v_pf
 
@@ -134,10 +136,9 @@ def mean_motion(a: RealScalarLike, mu: RealScalarLike = MU_EARTH) -> Float[Array
 def true_to_mean_anomaly(nu: RealScalarLike, e: RealScalarLike) -> Float[Array, ""]:
     r"""Mean anomaly $M = E - e\sin E$, $\tan(E/2) = \sqrt{(1-e)/(1+e)}\tan(\theta/2)$."""
     nu, e = jnp.asarray(nu, dtype=float), jnp.asarray(e, dtype=float)
-    big_e = 2.0 * jnp.arctan2(
-        jnp.sqrt(1.0 - e) * jnp.sin(nu / 2), jnp.sqrt(1.0 + e) * jnp.cos(nu / 2)
-    )
-    return big_e - e * jnp.sin(big_e)
+    sin_half, cos_half = vectorized_sincos(nu / 2)
+    big_e = 2.0 * jnp.arctan2(jnp.sqrt(1.0 - e) * sin_half, jnp.sqrt(1.0 + e) * cos_half)
+    return big_e - e * vectorized_sin(big_e)
 
 
 def mean_to_true_anomaly(
@@ -150,12 +151,12 @@ def mean_to_true_anomaly(
     in $(-\pi, \pi]$ plus the whole revolutions of $M$.
     """
     m, e = jnp.asarray(mean_anomaly, dtype=float), jnp.asarray(e, dtype=float)
-    big_e = m + e * jnp.sin(m)
+    big_e = m + e * vectorized_sin(m)
     for _ in range(iterations):
-        big_e = big_e - (big_e - e * jnp.sin(big_e) - m) / (1.0 - e * jnp.cos(big_e))
-    half = 2.0 * jnp.arctan2(
-        jnp.sqrt(1.0 + e) * jnp.sin(big_e / 2), jnp.sqrt(1.0 - e) * jnp.cos(big_e / 2)
-    )
+        sin_e, cos_e = vectorized_sincos(big_e)
+        big_e = big_e - (big_e - e * sin_e - m) / (1.0 - e * cos_e)
+    sin_half, cos_half = vectorized_sincos(big_e / 2)
+    half = 2.0 * jnp.arctan2(jnp.sqrt(1.0 + e) * sin_half, jnp.sqrt(1.0 - e) * cos_half)
     return half
 
 

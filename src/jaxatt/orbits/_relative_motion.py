@@ -33,6 +33,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
+from ..numerics import vectorized_sincos
 from ._constants import MU_EARTH
 from ._gravity import point_mass_gravity
 
@@ -55,8 +56,9 @@ def anomaly_rates(
     """
     p = semi_latus_rectum(a, e)
     k2 = jnp.sqrt(mu / p**3)
-    rho = 1.0 + e * jnp.cos(theta)
-    return p / rho, k2 * rho**2, -2.0 * k2**2 * e * jnp.sin(theta) * rho**3
+    sin_theta, cos_theta = vectorized_sincos(theta)
+    rho = 1.0 + e * cos_theta
+    return p / rho, k2 * rho**2, -2.0 * k2**2 * e * sin_theta * rho**3
 
 
 def coriolis_matrices(
@@ -181,7 +183,7 @@ def clohessy_wiltshire_stm(n: RealScalarLike, t: RealScalarLike) -> Float[Array,
     (Vallado, *Fundamentals of Astrodynamics*, eq. 6-66 in this axis order).
     """
     n, t = jnp.asarray(n), jnp.asarray(t)
-    s, c = jnp.sin(n * t), jnp.cos(n * t)
+    s, c = vectorized_sincos(n * t)
     zero, one = jnp.zeros_like(s), jnp.ones_like(s)
     return jnp.array(
         [
@@ -198,10 +200,12 @@ def clohessy_wiltshire_stm(n: RealScalarLike, t: RealScalarLike) -> Float[Array,
 def _ya_fundamental(theta, e, j):
     """Yamanaka-Ankersen fundamental matrix (x along-track, z radial inward; transformed
     variables, rows x~, z~, x~', z~')."""
-    rho = 1 + e * jnp.cos(theta)
-    s, c = rho * jnp.sin(theta), rho * jnp.cos(theta)
-    sp = jnp.cos(theta) + e * jnp.cos(2 * theta)
-    cp = -(jnp.sin(theta) + e * jnp.sin(2 * theta))
+    sin_theta, cos_theta = vectorized_sincos(theta)
+    sin_2theta, cos_2theta = vectorized_sincos(2 * theta)
+    rho = 1 + e * cos_theta
+    s, c = rho * sin_theta, rho * cos_theta
+    sp = cos_theta + e * cos_2theta
+    cp = -(sin_theta + e * sin_2theta)
     zero, one = jnp.zeros_like(s), jnp.ones_like(s)
     return jnp.array(
         [
@@ -215,8 +219,9 @@ def _ya_fundamental(theta, e, j):
 
 def _ya_inverse(theta, e):
     """Inverse of the fundamental matrix at J = 0 (Yamanaka & Ankersen 2002, eq. 82)."""
-    rho = 1 + e * jnp.cos(theta)
-    s, c = rho * jnp.sin(theta), rho * jnp.cos(theta)
+    sin_theta, cos_theta = vectorized_sincos(theta)
+    rho = 1 + e * cos_theta
+    s, c = rho * sin_theta, rho * cos_theta
     zero = jnp.zeros_like(s)
     m = jnp.array(
         [
@@ -260,8 +265,9 @@ def tschauner_hempel_stm(
 
     def to_transformed(th):
         # [x_ya, z_ya, x_ya_dot, z_ya_dot] -> [x~, z~, x~', z~'] (Yamanaka-Ankersen eq. 73)
-        rho = 1 + e * jnp.cos(th)
-        d = -e * jnp.sin(th)
+        sin_th, cos_th = vectorized_sincos(th)
+        rho = 1 + e * cos_th
+        d = -e * sin_th
         g = 1 / (k2 * rho)
         zero = jnp.zeros_like(rho)
         return jnp.array(
@@ -288,15 +294,12 @@ def tschauner_hempel_stm(
     )
     planar = p_map @ in_plane @ p_map.T
     # Out of plane: z~ = rho z, z~'' + z~ = 0 in theta.
-    rho0, rho1 = 1 + e * jnp.cos(theta0), 1 + e * jnp.cos(theta)
-    to0 = jnp.array([[rho0, 0.0 * rho0], [-e * jnp.sin(theta0), 1 / (k2 * rho0)]])
-    to1 = jnp.array([[rho1, 0.0 * rho1], [-e * jnp.sin(theta), 1 / (k2 * rho1)]])
-    rot = jnp.array(
-        [
-            [jnp.cos(theta - theta0), jnp.sin(theta - theta0)],
-            [-jnp.sin(theta - theta0), jnp.cos(theta - theta0)],
-        ]
-    )
+    (sin0, cos0), (sin1, cos1) = vectorized_sincos(theta0), vectorized_sincos(theta)
+    sin_d, cos_d = vectorized_sincos(theta - theta0)
+    rho0, rho1 = 1 + e * cos0, 1 + e * cos1
+    to0 = jnp.array([[rho0, 0.0 * rho0], [-e * sin0, 1 / (k2 * rho0)]])
+    to1 = jnp.array([[rho1, 0.0 * rho1], [-e * sin1, 1 / (k2 * rho1)]])
+    rot = jnp.array([[cos_d, sin_d], [-sin_d, cos_d]])
     normal = jnp.linalg.solve(to1, rot @ to0)
     out = jnp.zeros((6, 6), planar.dtype)
     idx_planar = jnp.array([0, 1, 3, 4])
@@ -315,11 +318,11 @@ def hill_rotation(
     u = jnp.asarray(argp) + jnp.asarray(theta)
 
     def r1(a):
-        c, s = jnp.cos(a), jnp.sin(a)
+        s, c = vectorized_sincos(a)
         return jnp.array([[1.0, 0.0, 0.0], [0.0, c, s], [0.0, -s, c]])
 
     def r3(a):
-        c, s = jnp.cos(a), jnp.sin(a)
+        s, c = vectorized_sincos(a)
         return jnp.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
 
     return r3(u) @ r1(jnp.asarray(i)) @ r3(jnp.asarray(raan))

@@ -52,6 +52,7 @@ from .._validation import (
     is_traced,
 )
 from ..metrics import AbstractMetric, Effort, Euclidean, Peak, SettlingTime
+from ..numerics import vectorized_cos
 from ..references import AbstractReference, EulerAngleCommand, EulerAngleTrajectory
 from ..rotations import attitude_error_quat, euler321_kinematics, euler321_to_quat, quat_angle
 from ..signals import AbstractSignal
@@ -139,7 +140,7 @@ class RigidBodyEuler(AbstractPlant):
     def valid(self, t: RealScalarLike, state: EulerAngleState) -> Bool[Array, ""]:
         """False at or beyond gimbal lock: $\\cos\\theta \\le c_{\\min}$."""
         del t
-        return jnp.cos(state.angles[1]) > self.gimbal_margin
+        return vectorized_cos(state.angles[1]) > self.gimbal_margin
 
     def check_state(
         self, state, name: str = "x0", batch_shape: tuple[int, ...] = ()
@@ -192,6 +193,6 @@ class RigidBodyEuler(AbstractPlant):
             "angle_error": state.angles - reference.angles,
             "angle_rate_error": self.angle_rates(state.angles, state.omega) - reference.rates,
             "attitude_error_angle": quat_angle(error_quat),
-            "cos_theta": jnp.cos(state.angles[1]),
+            "cos_theta": vectorized_cos(state.angles[1]),
             "disturbance": self.body.disturbance(t),
         }

@@ -29,6 +29,7 @@ from jaxtyping import Array, Float
 
 from .._custom_types import RealScalarLike
 from .._validation import check, check_finite, check_positive, check_shape
+from ..numerics import vectorized_sincos
 from ..orbits import MU_EARTH
 from ..orbits._relative_motion import anomaly_rates, hill_rotation
 from ..rotations import quat_from_dcm
@@ -112,7 +113,7 @@ class FlyAround(AbstractReference):
     def _frame(self, t, theta):
         a, b = self.basis()
         phi = self.phase + self.rate * (t - self.t0)
-        c, s = jnp.cos(phi), jnp.sin(phi)
+        s, c = vectorized_sincos(phi)
         x_d = -(c * a + s * b)
         c_dh = jnp.stack([x_d, jnp.cross(self.normal, x_d), self.normal])
         return phi, c_dh, c_dh @ hill_rotation(theta, self.i, self.raan, self.argp)
@@ -124,7 +125,7 @@ class FlyAround(AbstractReference):
     def __call__(self, t: RealScalarLike, state: FlyAroundState):
         a, b = self.basis()
         phi, c_dh, c_dn = self._frame(t, state.theta)
-        c, s = jnp.cos(phi), jnp.sin(phi)
+        s, c = vectorized_sincos(phi)
         position = self.radius * (c * a + s * b)
         velocity = self.radius * self.rate * (-s * a + c * b)
         translation = TranslationReference(position, velocity, -(self.rate**2) * position)

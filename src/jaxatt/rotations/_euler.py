@@ -17,6 +17,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
+from ..numerics import vectorized_sincos
 from ._quaternion import quat_from_axis_angle, quat_multiply
 
 
@@ -30,9 +31,9 @@ def euler321_to_dcm(angles: Float[ArrayLike, "3"]) -> Float[Array, "3 3"]:
     & c_\phi c_\theta \end{bmatrix}.$$ Defined everywhere (no singularity).
     """
     phi, theta, psi = jnp.asarray(angles)
-    sf, cf = jnp.sin(phi), jnp.cos(phi)
-    st, ct = jnp.sin(theta), jnp.cos(theta)
-    sp, cp = jnp.sin(psi), jnp.cos(psi)
+    sf, cf = vectorized_sincos(phi)
+    st, ct = vectorized_sincos(theta)
+    sp, cp = vectorized_sincos(psi)
     return jnp.stack(
         [
             jnp.stack([ct * cp, ct * sp, -st]),
@@ -83,12 +84,12 @@ def euler321_kinematics_matrix(
     the states beyond the floor as invalid).
     """
     phi, theta, _ = jnp.asarray(angles)
-    sf, cf = jnp.sin(phi), jnp.cos(phi)
-    ct = jnp.cos(theta)
+    sf, cf = vectorized_sincos(phi)
+    st, ct = vectorized_sincos(theta)
     if cos_floor is not None:
         floor = jnp.asarray(cos_floor, dtype=ct.dtype)
         ct = jnp.where(jnp.abs(ct) >= floor, ct, jnp.where(ct < 0, -floor, floor))
-    tt = jnp.sin(theta) / ct
+    tt = st / ct
     zero = jnp.zeros_like(phi)
     one = jnp.ones_like(phi)
     return jnp.stack(
@@ -121,8 +122,8 @@ def euler321_body_rates(
     """
     phi, theta, _ = jnp.asarray(angles)
     d_phi, d_theta, d_psi = jnp.asarray(angle_rates)
-    sf, cf = jnp.sin(phi), jnp.cos(phi)
-    st, ct = jnp.sin(theta), jnp.cos(theta)
+    sf, cf = vectorized_sincos(phi)
+    st, ct = vectorized_sincos(theta)
     return jnp.stack(
         [d_phi - st * d_psi, cf * d_theta + sf * ct * d_psi, -sf * d_theta + cf * ct * d_psi]
     )

@@ -14,7 +14,7 @@ from jax.typing import DTypeLike
 from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
-from ..numerics import safe_norm, safe_normalize, sign
+from ..numerics import safe_norm, safe_normalize, sign, vectorized_sincos
 from ._skew import skew
 
 
@@ -108,7 +108,8 @@ def quat_from_axis_angle(axis: Float[ArrayLike, "3"], angle: RealScalarLike) -> 
     half = 0.5 * jnp.asarray(angle, dtype=axis.dtype)
     unit = safe_normalize(axis)
     has_axis = jnp.any(axis != 0)
-    q = jnp.concatenate([jnp.cos(half)[None], jnp.sin(half) * unit])
+    sin_half, cos_half = vectorized_sincos(half)
+    q = jnp.concatenate([cos_half[None], sin_half * unit])
     return jnp.where(has_axis, q, quat_identity(axis.dtype))
 
 
