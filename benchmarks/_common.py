@@ -1,6 +1,7 @@
-"""Helpers shared by `bench_gradient.py`, `bench_scaling.py`, `bench_compile.py` and
-`bench_roofline.py`: command-line flags, machine description, the Chen 2022 M1 set-up, XLA's
-cost and memory analyses, and the end of a run (load average, JSON, exit code).
+"""Helpers shared by `bench_gradient.py`, `bench_scaling.py`, `bench_compile.py`,
+`bench_roofline.py`, `bench_lapack_free.py` and `bench_libm_free.py`: command-line flags,
+machine description, the Chen 2022 M1 set-up, previous implementations restored in-process,
+XLA's cost and memory analyses, and the end of a run (load average, JSON, exit code).
 
 The timing convention (ahead-of-time `f.lower(*args).compile()` timed alone, one warm-up call,
 then `min(timeit.repeat(lambda: jax.block_until_ready(f(x)), number=1, repeat=R))`, fewer
@@ -14,6 +15,7 @@ Nothing here creates a JAX array at import: each script enables float64 (or not)
 """
 
 import argparse
+import contextlib
 import json
 import os
 import pathlib
@@ -55,6 +57,34 @@ def time_compiled(compiled, args, repeat: int, max_seconds: float) -> tuple:
     n = min(repeat, int(max_seconds // warm))
     run = run_time(lambda: jax.block_until_ready(compiled(*args)), n) if n else warm
     return run, out, n
+
+
+@contextlib.contextmanager
+def restored(replacements):
+    """Set `(owner, name, value)` attributes for the duration, with fresh compile caches."""
+    saved = [(owner, name, getattr(owner, name)) for owner, name, _ in replacements]
+    for owner, name, value in replacements:
+        setattr(owner, name, value)
+    jax.clear_caches()
+    try:
+        yield
+    finally:
+        for owner, name, value in saved:
+            setattr(owner, name, value)
+        jax.clear_caches()
+
+
+def relative_difference(a: np.ndarray, b: np.ndarray) -> float:
+    """Largest |a - b| / max(|a|, 1e-12) over the finite entries; inf if the two disagree on
+    which entries are finite or on their values there (NaN equals NaN: a failed sample's
+    peak is NaN in both)."""
+    finite = np.isfinite(a)
+    if not np.array_equal(finite, np.isfinite(b)) or not np.array_equal(
+        a[~finite], b[~finite], equal_nan=True
+    ):
+        return float("inf")
+    scale = np.maximum(np.abs(a[finite]), 1e-12)
+    return float(np.max(np.abs(a[finite] - b[finite]) / scale, initial=0.0))
 
 
 # ---------------------------------------------------------------------------------------------

@@ -31,7 +31,6 @@ Usage (from the repository root):
 """
 
 import argparse
-import contextlib
 import sys
 import time
 
@@ -84,32 +83,17 @@ def _lapack_omega_d(self, t):
     return jnp.linalg.solve(mrp_kinematics_matrix(sigma), sigma_dot)
 
 
-@contextlib.contextmanager
-def _restored(replacements):
-    """Set `(owner, name, value)` attributes for the duration, with fresh compile caches."""
-    saved = [(owner, name, getattr(owner, name)) for owner, name, _ in replacements]
-    for owner, name, value in replacements:
-        setattr(owner, name, value)
-    jax.clear_caches()
-    try:
-        yield
-    finally:
-        for owner, name, value in saved:
-            setattr(owner, name, value)
-        jax.clear_caches()
-
-
 def zhang2021_lapack():
     from jaxatt.controllers import _pose_sliding_mode
 
-    return _restored([(_pose_sliding_mode, "_block_diagonal_norm", _lapack_norm)])
+    return _common.restored([(_pose_sliding_mode, "_block_diagonal_norm", _lapack_norm)])
 
 
 def wu2018_lapack():
     from jaxatt.controllers import _safe_approach
     from jaxatt.scenarios import wu2018
 
-    return _restored(
+    return _common.restored(
         [
             (_safe_approach, "solve3", jnp.linalg.solve),
             (wu2018.SafeApproachReference, "omega_d", _lapack_omega_d),
@@ -157,19 +141,6 @@ def run_row(batch: int, args) -> tuple[float, float, np.ndarray]:
     return first_s - run_s, run_s, np.concatenate(columns, axis=1)
 
 
-def relative_difference(a: np.ndarray, b: np.ndarray) -> float:
-    """Largest |a - b| / max(|a|, 1e-12) over the finite entries; inf if the two disagree on
-    which entries are finite or on their values there (NaN equals NaN: a failed sample's
-    peak is NaN in both)."""
-    finite = np.isfinite(a)
-    if not np.array_equal(finite, np.isfinite(b)) or not np.array_equal(
-        a[~finite], b[~finite], equal_nan=True
-    ):
-        return float("inf")
-    scale = np.maximum(np.abs(a[finite]), 1e-12)
-    return float(np.max(np.abs(a[finite] - b[finite]) / scale, initial=0.0))
-
-
 def main(args) -> int:
     jax.config.update("jax_enable_x64", True)
     meta = _common.machine_meta()
@@ -184,7 +155,7 @@ def main(args) -> int:
         with SCENARIOS[args.scenario][1]():
             lapack = run_row(batch, args)
         closed = run_row(batch, args)
-        diff = relative_difference(lapack[2], closed[2])
+        diff = _common.relative_difference(lapack[2], closed[2])
         ok &= bool(np.isfinite(diff) and diff <= 1e-9)
         per = [s / (batch * steps) * 1e6 for s in (lapack[1], closed[1])]
         row = {
