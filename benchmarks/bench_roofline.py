@@ -46,9 +46,9 @@ square matrices, 2 n^3 FLOPs. Bandwidth, measured: `x = x + y` repeated in a `la
 traffic). Also measured: the cost of one `pow` per element, since the two-phase law calls
 `pow` per axis per RK4 stage and the roofline counts transcendentals apart from FLOPs.
 
-Figure: `benchmarks/results/roofline.png` (log-log; the compute roofs, derived and matmul,
-under the measured bandwidth roof; each program at each batch, filled at its executed FLOPs,
-hollow at its written ones).
+Figure: next to the JSON file, with its name (`benchmarks/results/roofline.png` by default;
+log-log; the compute roofs, derived and matmul, under the measured bandwidth roof; each
+program at each batch, filled at its executed FLOPs, hollow at its written ones).
 
 **Checks** (exit code 1 when one fails): exactly one step loop found in each program and its
 FLOPs are positive; the hand scan's final states equal jaxatt's at every batch (1e-9; float32
@@ -66,6 +66,7 @@ A small run (about 1.5 minutes on a loaded 2-core machine):
 """
 
 import argparse
+import pathlib
 import sys
 
 import _reference as ref
@@ -415,7 +416,7 @@ def main(args) -> int:
     )
     figure = None
     if not args.no_plot:
-        figure = common.results_path(args, "roofline.png")
+        figure = common.results_path(args, pathlib.Path(args.out).stem + ".png")
         figure.parent.mkdir(parents=True, exist_ok=True)
         plot(rows, peak, measured, args, meta, figure)
         print(f"figure: {figure}")
