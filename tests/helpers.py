@@ -1,4 +1,5 @@
-"""Shared test models: small, fixed scenarios built once per module, and a compile counter."""
+"""Shared test models: small, fixed scenarios built once per module, a compile counter, and
+the primitives of a jaxpr."""
 
 import jax
 import jax.numpy as jnp
@@ -82,3 +83,20 @@ def compile_count(name: str | None = None) -> int:
     if name is None:
         return len(_BACKEND_COMPILES)
     return sum(name in fun for fun in _BACKEND_COMPILES)
+
+
+def primitives(closed_jaxpr) -> set[str]:
+    """The names of every primitive in a closed jaxpr, nested jaxprs (calls, custom rules,
+    loops) included."""
+    names = set()
+
+    def walk(jaxpr):
+        for eqn in jaxpr.eqns:
+            names.add(eqn.primitive.name)
+            for param in eqn.params.values():
+                inner = getattr(param, "jaxpr", param)
+                if hasattr(inner, "eqns"):
+                    walk(inner)
+
+    walk(closed_jaxpr.jaxpr)
+    return names

@@ -10,6 +10,8 @@ import pytest
 from jaxatt.numerics import vectorized_cos, vectorized_sin, vectorized_sincos
 from jaxatt.numerics._sincos import REDUCTION_LIMIT
 
+from ..helpers import primitives
+
 
 def _ulps(value: np.ndarray, reference: np.ndarray) -> np.ndarray:
     return np.abs(value - reference) / np.spacing(np.abs(reference))
@@ -100,21 +102,6 @@ def test_float32_is_jnp_sin_and_cos():
     np.testing.assert_array_equal(cos_x, jnp.cos(x))
 
 
-def _primitives(closed_jaxpr) -> set[str]:
-    names = set()
-
-    def walk(jaxpr):
-        for eqn in jaxpr.eqns:
-            names.add(eqn.primitive.name)
-            for param in eqn.params.values():
-                inner = getattr(param, "jaxpr", param)
-                if hasattr(inner, "eqns"):
-                    walk(inner)
-
-    walk(closed_jaxpr.jaxpr)
-    return names
-
-
 def test_float64_programs_and_their_derivatives_call_no_library_sin_or_cos():
     # XLA:CPU's float64 `sin`/`cos` are scalar C-library calls per element.
     x = jnp.array([0.3, -2.0, 7.0])
@@ -124,5 +111,5 @@ def test_float64_programs_and_their_derivatives_call_no_library_sin_or_cos():
         return jnp.sum(sin_x * cos_x)
 
     for program in (jax.make_jaxpr(f)(x), jax.make_jaxpr(jax.grad(f))(x)):
-        assert not {"sin", "cos"} & _primitives(program)
-    assert {"sin", "cos"} <= _primitives(jax.make_jaxpr(lambda x: jnp.sin(x) + jnp.cos(x))(x))
+        assert not {"sin", "cos"} & primitives(program)
+    assert {"sin", "cos"} <= primitives(jax.make_jaxpr(lambda x: jnp.sin(x) + jnp.cos(x))(x))
