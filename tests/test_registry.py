@@ -12,6 +12,7 @@ states, and the path of one array parameter. Each case must satisfy, on a short 
 And no library closed loop calls LAPACK in its step (checked on the lowered program).
 """
 
+import functools
 import inspect
 import re
 
@@ -462,7 +463,11 @@ def _sincos_text() -> str:
     )
 
 
-def _vector_field_jaxpr(make_loop, make_x0s):
+@functools.cache
+def _vector_field_jaxpr(name: str):
+    """`(field, y0, jaxpr)` of one evaluation of the registry loop `name`'s vector field at
+    its first start, traced once for the tests that read it."""
+    make_loop, make_x0s, _ = CASES[name]
     loop = make_loop()
     y0 = loop.init(0.0, _index(make_x0s(), 0))
     field = lambda y, loop=loop: loop.vector_field(0.1, y, None)  # noqa: E731
@@ -477,10 +482,10 @@ def test_no_library_closed_loop_evaluates_a_power_twice_on_the_same_inputs():
     passes it on. Checked on the jaxpr of one vector-field evaluation; nothing compiled.
     (`vectorized_sincos` is left out: XLA merges its repeats, the test below.)"""
     sincos, repeated = _sincos_text(), {}
-    for name, (make_loop, make_x0s, _) in CASES.items():
+    for name in CASES:
         if name.startswith("stand-in"):
             continue
-        _, _, jaxpr = _vector_field_jaxpr(make_loop, make_x0s)
+        _, _, jaxpr = _vector_field_jaxpr(name)
         calls = _calls(jaxpr, "custom_jvp_call")
         count = sum(total - distinct for text, (total, distinct) in calls.items() if text != sincos)
         if count:
@@ -496,8 +501,8 @@ def test_xla_merges_the_repeated_sines_of_a_closed_loop():
     into each consumer, whatever their origin), the compiled vector field holds at most one
     `round-nearest-even` (the reduction's n = round(2x/pi)) per distinct call."""
     sincos, checked = _sincos_text(), 0
-    for name, (make_loop, make_x0s, _) in CASES.items():
-        field, y0, jaxpr = _vector_field_jaxpr(make_loop, make_x0s)
+    for name in CASES:
+        field, y0, jaxpr = _vector_field_jaxpr(name)
         total, distinct = _calls(jaxpr, "custom_jvp_call").get(sincos, (0, 0))
         if total <= distinct:
             continue
