@@ -18,8 +18,9 @@ def _ulps(value: np.ndarray, reference: np.ndarray) -> np.ndarray:
 
 
 def _near_multiples_of_half_pi(count: int) -> np.ndarray:
-    # The doubles nearest k pi/2 and their neighbours: the first Cody-Waite round cancels
-    # more than 49 bits there, so these take fdlibm's second and third rounds.
+    # The doubles nearest k pi/2 and their neighbours: there the first Cody-Waite round cancels
+    # more than 16 bits and the second more than 49 (fdlibm's tests for its later rounds), so
+    # the result is only as precise as the later rounds make it.
     centre = np.arange(1, count + 1) * (np.pi / 2)
     below = np.nextafter(centre, 0)
     above = np.nextafter(centre, np.inf)

@@ -45,38 +45,27 @@ _C6 = -1.13596475577881948265e-11
 _TINY = 2.0**-27
 
 
-def _exponent(x: Array) -> Array:
-    """The biased exponent field of float64 `x`, as int64."""
-    return (lax.bitcast_convert_type(x, jnp.int64) >> 52) & 0x7FF
-
-
 def _reduce(x: Array) -> tuple[Array, Array, Array]:
     """`x = n pi/2 + y0 + y1` with |y0 + y1| <= pi/4 (about), for |x| < `REDUCTION_LIMIT`.
 
-    fdlibm's medium path: one, two or three rounds of Cody-Waite subtraction, each taking 33
-    more bits of pi/2, the later rounds where the first lost too many bits to cancellation.
-    All three are computed and selected (no branches in vector code).
+    fdlibm's medium path: Cody-Waite subtraction of pi/2 in three rounds of 33 bits (151 bits
+    in all), each round's rounding error carried into the tail. fdlibm takes the second and
+    third rounds only where the first cancelled more than 16 bits (the second more than 49);
+    vector code would compute all three and select, so it always takes the third, which is
+    as accurate or more: where there is no cancellation, each round's error term is exact
+    (Fast2Sum, |t| >= |n pi2_k|).
     """
     n = jnp.round(x * _INV_PIO2)
     r = x - n * _PIO2_1
-    w = n * _PIO2_1T
-    y0 = r - w
-    exponent = _exponent(x)
-    # Second round (118 bits) where the first cancelled more than 16 bits.
+    # Second round (118 bits of pi/2).
     t = r
-    r2 = t - n * _PIO2_2
-    w2 = n * _PIO2_2T - ((t - r2) - n * _PIO2_2)
-    y0_2 = r2 - w2
-    # Third round (151 bits) where the second cancelled more than 49 bits.
-    t = r2
-    r3 = t - n * _PIO2_3
-    w3 = n * _PIO2_3T - ((t - r3) - n * _PIO2_3)
-    y0_3 = r3 - w3
-    second = exponent - _exponent(y0) > 16
-    third = second & (exponent - _exponent(y0_2) > 49)
-    r = jnp.where(third, r3, jnp.where(second, r2, r))
-    w = jnp.where(third, w3, jnp.where(second, w2, w))
-    y0 = jnp.where(third, y0_3, jnp.where(second, y0_2, y0))
+    r = t - n * _PIO2_2
+    w = n * _PIO2_2T - ((t - r) - n * _PIO2_2)
+    # Third round (151 bits).
+    t = r
+    r = t - n * _PIO2_3
+    w = n * _PIO2_3T - ((t - r) - n * _PIO2_3)
+    y0 = r - w
     y1 = (r - y0) - w
     return n, y0, y1
 
@@ -130,10 +119,11 @@ def vectorized_sincos(
     r"""$(\sin x, \cos x)$, elementwise, as vectorizable arithmetic.
 
     For float64 it is fdlibm's algorithm: $x = n\pi/2 + y$ with $|y| \lesssim \pi/4$ by
-    Cody-Waite subtraction of $\pi/2$ in 33-bit pieces (up to three rounds, 151 bits, where
-    cancellation requires), then degree-13 and degree-14 minimax polynomials in $y$ and the
-    quadrant $n \bmod 4$. Error below 1 ulp (`tests/numerics/test_sincos.py` measures it
-    against NumPy, including the doubles nearest multiples of $\pi/2$).
+    Cody-Waite subtraction of $\pi/2$ in three 33-bit pieces (151 bits, so that the doubles
+    nearest multiples of $\pi/2$ keep their precision), then degree-13 and degree-14 minimax
+    polynomials in $y$ and the quadrant $n \bmod 4$. Error below 1 ulp
+    (`tests/numerics/test_sincos.py` measures it against NumPy, including the doubles
+    nearest multiples of $\pi/2$).
 
     **Domain:** the reduction is exact for $|x| < 2^{20}\pi/2 \approx 1.65 \times 10^6$ rad
     (`REDUCTION_LIMIT`, about 262 000 turns). Beyond it, and for $\pm\infty$ and NaN, both
