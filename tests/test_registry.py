@@ -496,7 +496,7 @@ def test_no_library_closed_loop_evaluates_a_power_twice_on_the_same_inputs():
 def test_xla_merges_the_repeated_sines_of_a_closed_loop():
     """The sines of one angle are asked for by several components of a step (the plant's
     anomaly rates and gravity, the reference, the controller's model): 5 to 23
-    `vectorized_sincos` calls on 1 to 9 distinct inputs per vector field. XLA's common
+    `vectorized_sincos` calls on 1 to 10 distinct inputs per vector field. XLA's common
     subexpression elimination merges them: with fusion turned off (fusion copies producers
     into each consumer, whatever their origin), the compiled vector field holds at most one
     `round-nearest-even` (the reduction's n = round(2x/pi)) per distinct call."""

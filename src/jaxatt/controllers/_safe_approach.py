@@ -282,6 +282,7 @@ class SafeApproachSlidingMode(AbstractController):
         else:
             w = self.k1 * e1 + self.k2 * power
             # gamma |e1|^(gamma - 1) with |e1| floored (> 0): no C-library pow call per element
+            # (not `abs_pow`, whose exponent must be >= 0; gamma - 1 is negative for gamma < 1)
             floored = jnp.maximum(jnp.abs(e1), self.floor)
             slope = self.gamma * jnp.exp((self.gamma - 1.0) * vectorized_log(floored))
             w_dot = self.k1 * e2 + self.k2 * slope * e2

@@ -1,7 +1,7 @@
 r"""Sine and cosine as arithmetic a vectorizing compiler keeps in vector registers.
 
 XLA:CPU lowers a float64 `sin` or `cos` to a call of the C library's scalar function, once per
-element (7.9 ns an element here, against 0.7 ns for `exp`, which XLA inlines). A closed loop
+element (7-8 ns an element here, against 0.7-0.8 ns for `exp`, which XLA inlines). A closed loop
 whose state holds an angle (a true anomaly, Euler angles) paid it at every stage:
 [`vectorized_sincos`][] is fdlibm's `__ieee754_rem_pio2` (its medium-size path) and its
 `__kernel_sin`/`__kernel_cos` (Sun Microsystems, 1993; FreeBSD's `k_sin.c`, `k_cos.c`), written
@@ -100,7 +100,7 @@ def _sincos_float64(x: Array) -> tuple[Array, Array]:
     cos_x = jnp.where(swap, sin_y, cos_y)
     sin_x = jnp.where(quadrant >= 2, -sin_x, sin_x)
     cos_x = jnp.where((quadrant == 1) | (quadrant == 2), -cos_x, cos_x)
-    # Stored once for all readers: XLA would copy the ~60 operations above into every kernel
+    # Stored once for all readers: XLA would copy the ~75 operations above into every kernel
     # that reads a sine (it never copies the library call, which it counts as expensive).
     sin_x, cos_x = materialized((sin_x, cos_x), x)
     magnitude = jnp.abs(x)
@@ -135,7 +135,7 @@ def vectorized_sincos(
     The results are [`materialized`][jaxatt.numerics.materialized] (computed once per
     argument and stored): without that, XLA's loop fusion copied the reduction and both
     polynomials into every kernel reading a sine, and Wu 2018's Monte Carlo ran 0.92x as fast
-    as with the library calls instead of 1.55x (benchmarks/README.md, "Sines and cosines that
+    as with the library calls instead of 1.45-1.51x (benchmarks/README.md, "Sines and cosines that
     vectorize").
 
     Other dtypes go to `jnp.sin` and `jnp.cos` (XLA vectorizes float32's itself).
