@@ -4,6 +4,11 @@ Every power, norm, sign and inverse cosine used by jaxatt goes through these hel
 gradients through a closed loop are finite wherever the mathematics allows (STYLE rule 7).
 """
 
+from ._atan import (
+    vectorized_arccos as vectorized_arccos,
+    vectorized_arctan as vectorized_arctan,
+    vectorized_arctan2 as vectorized_arctan2,
+)
 from ._fractional import (
     FractionalMemory as FractionalMemory,
     caputo as caputo,
