@@ -513,7 +513,19 @@ def test_xla_merges_the_repeated_sines_of_a_closed_loop():
     assert checked >= 3
 
 
-_SCALAR_LIBRARY_CALLS = ("atanh", "cos", "log", "log1p", "pow", "sin", "tan")
+_SCALAR_LIBRARY_CALLS = (
+    "acos",
+    "asin",
+    "atan",
+    "atan2",
+    "atanh",
+    "cos",
+    "log",
+    "log1p",
+    "pow",
+    "sin",
+    "tan",
+)
 
 
 def _batched_primitives(jaxpr, batch: int, found: set[str]) -> set[str]:
@@ -527,14 +539,15 @@ def _batched_primitives(jaxpr, batch: int, found: set[str]) -> set[str]:
     return found
 
 
-def test_no_library_closed_loop_takes_a_library_log_atanh_pow_or_sin_of_its_state():
+def test_no_library_closed_loop_takes_a_c_library_function_of_its_state():
     """The powers take their logarithm from `jaxatt.numerics.vectorized_log`, gravity its
     |r|^3 from a square root, the prescribed-performance transformation its atanh from
-    `vectorized_atanh`, anomalies and Euler angles their sines from `vectorized_sincos`: in a
-    batch, no float64 `atanh`, `cos`, `log`, `log1p`, `pow`, `sin` or `tan` of a sample's values
-    is left in any library closed loop's vector field (those of time alone are computed once
-    per step for the whole batch and do not count). Traced only, nothing compiled. (The
-    `arccos` of `eigvalsh3`, in Zhang 2021 and Yue 2018 eq. 22, is left.)"""
+    `vectorized_atanh`, anomalies and Euler angles their sines from `vectorized_sincos`,
+    Smith's eigenvalue formula (Zhang 2021, Yue 2018 eq. 22) its arccos from
+    `vectorized_arccos`: in a batch, no float64 `acos`, `asin`, `atan`, `atan2`, `atanh`, `cos`,
+    `log`, `log1p`, `pow`, `sin` or `tan` of a sample's values (XLA:CPU's scalar C-library
+    calls) is left in any library closed loop's vector field (those of time alone are computed
+    once per step for the whole batch and do not count). Traced only, nothing compiled."""
     batch = 7
     calls = {}
     for name, (make_loop, make_x0s, _) in CASES.items():

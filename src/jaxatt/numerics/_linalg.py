@@ -16,6 +16,7 @@ import jax.numpy as jnp
 from jax import lax
 from jaxtyping import Array, ArrayLike, Float
 
+from ._atan import vectorized_arccos
 from ._norm import safe_norm, safe_normalize
 from ._sincos import vectorized_cos
 
@@ -123,7 +124,8 @@ def _smith(m: Float[Array, "3 3"]):
     p = jnp.where(spread, jnp.sqrt(jnp.where(spread, p2, 1)), p2)
     r = det3(deviation / jnp.where(spread, p, 1)) / 2
     inside = jnp.abs(r) < 1
-    phi = jnp.where(inside, jnp.arccos(jnp.where(inside, r, 0)), jnp.where(r >= 1, 0, math.pi)) / 3
+    angle = vectorized_arccos(jnp.where(inside, r, 0))
+    phi = jnp.where(inside, angle, jnp.where(r >= 1, 0, math.pi)) / 3
     largest = q + 2 * p * vectorized_cos(phi)
     smallest = q + 2 * p * vectorized_cos(phi + 2 * math.pi / 3)
     return r, largest, smallest

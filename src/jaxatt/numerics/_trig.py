@@ -4,16 +4,20 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
+from ._atan import vectorized_arccos
+
 
 @jax.custom_jvp
 def safe_arccos(x: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
-    r"""$\arccos(\mathrm{clip}(x, -1, 1))$.
+    r"""$\arccos(\mathrm{clip}(x, -1, 1))$, from
+    [`vectorized_arccos`][jaxatt.numerics.vectorized_arccos] (no C-library call in a float64
+    program).
 
     **Gradient:** $-1/\sqrt{\max(1 - x^2, \varepsilon)}$ (`eps` the dtype's machine epsilon),
     finite at $x = \pm 1$ where the exact derivative is infinite.
     """
     x = jnp.asarray(x)
-    return jnp.arccos(jnp.clip(x, -1, 1))
+    return vectorized_arccos(jnp.clip(x, -1, 1))
 
 
 @safe_arccos.defjvp
