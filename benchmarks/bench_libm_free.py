@@ -1,9 +1,10 @@
 """Vectorized transcendental functions against the C-library calls they replaced.
 
-XLA:CPU compiles a float64 `sin`, `cos`, `log` (and so `arctanh`) into a call of the C
-library's scalar function, once per element, between its vectorized kernels; `exp` it inlines.
-`jaxatt.numerics` has `vectorized_sincos` and `vectorized_log`/`vectorized_atanh` (fdlibm's
-algorithms as jnp operations), and the library's closed loops use them.
+XLA:CPU compiles a float64 `sin`, `cos`, `log` (and so `arctanh`), `atan2` and `acos` into a
+call of the C library's scalar function, once per element, between its vectorized kernels;
+`exp` it inlines. `jaxatt.numerics` has `vectorized_sincos`, `vectorized_log`/`vectorized_atanh`
+and `vectorized_arctan2`/`vectorized_arccos` (fdlibm's algorithms as jnp operations), and the
+library's closed loops use them.
 
 Part 1 (`--elements`): nanoseconds per element of one jitted function over 2^20 float64
 values: each C-library function against its vectorized replacement, `exp` for scale (min over
@@ -13,11 +14,13 @@ Part 2 (`--scenarios`): the call `jaxatt.montecarlo.monte_carlo(loop, x0s, 0, T,
 metrics=...)` (every other option at its default: metrics reduced on the fly, scalarized on CPU
 from 1000 samples) compiled twice in one process, once as the library is and once with the
 C-library functions restored (`jaxatt.numerics._sincos._sincos_float64` returning
-`(jnp.sin(x), jnp.cos(x))`, `jaxatt.numerics._log._log_float64` = `jnp.log`: every caller
-then traces the library call), each with the XLA options the eager call would pass
-(`_quick.UserProgram`). The two compiled programs are timed round robin (one warm-up each,
-then `--repeat` rounds, min per program). Their metrics, statuses and failure times must
-agree to `--rtol` relative (NaN and inf in the same places), or the script exits 1.
+`(jnp.sin(x), jnp.cos(x))`, `jaxatt.numerics._log._log_float64` = `jnp.log`,
+`jaxatt.numerics._atan`'s `_atan2_float64` = `jnp.arctan2` and `_acos_float64` = `jnp.arccos`
+with its `_stored` mark the identity: every caller then traces the library call), each with
+the XLA options the eager call would pass (`_quick.UserProgram`). The two compiled programs
+are timed round robin (one warm-up each, then `--repeat` rounds, min per program). Their
+metrics, statuses and failure times must agree to `--rtol` relative (NaN and inf in the same
+places), or the script exits 1.
 
 - `wu2018`: `jaxatt.scenarios.wu2018.build()` from `sample_corridor_starts(key(seed), B)`,
   RK4 dt = 0.05 s, the peak control and the control effort (`Peak("u")`, `Effort()`: the
@@ -33,6 +36,8 @@ agree to `--rtol` relative (NaN and inf in the same places), or the script exits
   powers exp(a log|s|) (the logarithm restored).
 - `zhang2021`: the "ppc" hover loop (`zhang2021_hover.build("ppc")`), RK4 dt = 0.02 s, default
   metrics: powers and the prescribed-performance transformation's atanh.
+- `zhang2021-acos`: the `zhang2021` loop and metrics, the arccosine of Smith's eigenvalue
+  formula in the robust gain (`largest_eigenvalue3`) at every stage (the arccosine restored).
 
 Usage (from the repository root):
 
@@ -89,7 +94,13 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 def element_costs(repeat: int = 9) -> dict[str, float]:
     """ns per element of each function over 2^20 float64 values in [0.01, 10)."""
-    from jaxatt.numerics import vectorized_atanh, vectorized_log, vectorized_sincos
+    from jaxatt.numerics import (
+        vectorized_arccos,
+        vectorized_arctan2,
+        vectorized_atanh,
+        vectorized_log,
+        vectorized_sincos,
+    )
 
     n = 1 << 20
     x = jnp.asarray(np.random.default_rng(0).uniform(0.01, 10.0, n))
@@ -104,6 +115,10 @@ def element_costs(repeat: int = 9) -> dict[str, float]:
         "vectorized_log": (vectorized_log, x),
         "C library: arctanh": (jnp.arctanh, z),
         "vectorized_atanh": (vectorized_atanh, z),
+        "C library: arctan2": (lambda z: jnp.arctan2(z, 0.5), z),
+        "vectorized_arctan2": (lambda z: vectorized_arctan2(z, 0.5), z),
+        "C library: arccos": (jnp.arccos, z),
+        "vectorized_arccos": (vectorized_arccos, z),
     }
     compiled = {name: jax.jit(f).lower(a).compile() for name, (f, a) in functions.items()}
     best = dict.fromkeys(functions, float("inf"))
@@ -135,6 +150,18 @@ def c_library_log():
     from jaxatt.numerics import _log
 
     return _common.restored([(_log, "_log_float64", jnp.log)])
+
+
+def c_library_atan():
+    from jaxatt.numerics import _atan
+
+    return _common.restored(
+        [
+            (_atan, "_atan2_float64", jnp.arctan2),
+            (_atan, "_acos_float64", jnp.arccos),
+            (_atan, "_stored", lambda angle: angle),
+        ]
+    )
 
 
 def wu2018_setup(batch: int, seed: int):
@@ -178,6 +205,7 @@ SCENARIOS = {  # name: (set-up, C-library functions restored, dt, default horizo
     "flyaround": (flyaround_setup, c_library_sincos, 0.1, 100.0),
     "chen2022": (chen2022_setup, c_library_log, 1e-3, 2.0),
     "zhang2021": (zhang2021_setup, c_library_log, 0.02, 20.0),
+    "zhang2021-acos": (zhang2021_setup, c_library_atan, 0.02, 20.0),
 }
 
 
@@ -246,7 +274,7 @@ def main(args) -> int:
             print(f"  {name:30s} {ns:6.2f}")
     rows = []
     print(
-        f"{'scenario':>10} {'B':>6} {'compile s (C, vec)':>19} {'C us/st-st':>10} "
+        f"{'scenario':>14} {'B':>6} {'compile s (C, vec)':>19} {'C us/st-st':>10} "
         f"{'vec us/st-st':>12} {'speed-up':>8} {'max rel diff':>12}"
     )
     for name in args.scenarios:
@@ -256,7 +284,7 @@ def main(args) -> int:
             rows.append(row)
             per, compile_s = row["us_per_state_step"], row["compile_s"]
             print(
-                f"{name:>10} {batch:>6} {compile_s['C library']:>9.1f} "
+                f"{name:>14} {batch:>6} {compile_s['C library']:>9.1f} "
                 f"{compile_s['vectorized']:>9.1f} {per['C library']:>10.3g} "
                 f"{per['vectorized']:>12.3g} {row['speed_up']:>7.2f}x "
                 f"{row['max_relative_difference']:>12.2g}",
