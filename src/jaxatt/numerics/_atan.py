@@ -6,7 +6,8 @@ per element (6-9 ns an element here, against 0.7-0.9 ns for `exp` and 0.5 ns for
 which XLA inlines). Closed loops met them at every stage: the rotation angle of an attitude error
 ([`jaxatt.rotations.quat_angle`][], the signal a GNC engineer times convergence on), a pointing
 angle ([`safe_arccos`][jaxatt.numerics.safe_arccos]), Smith's eigenvalue formula
-([`eigvalsh3`][jaxatt.numerics.eigvalsh3], in Zhang 2021's and Yue 2018's controllers). These
+([`largest_eigenvalue3`][jaxatt.numerics.largest_eigenvalue3] in Zhang 2021's controller,
+through `spectral_norm` in Yue 2018 eq. 22; [`eigvalsh3`][jaxatt.numerics.eigvalsh3]). These
 are fdlibm's `atan`, `__ieee754_atan2` and `__ieee754_acos` (Sun Microsystems, 1993; FreeBSD's
 `s_atan.c`, `e_atan2.c`, `e_acos.c`): their branches become selects, each element computing
 one argument reduction and one polynomial or rational approximation (1.1 ns an element for

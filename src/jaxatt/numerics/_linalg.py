@@ -18,7 +18,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from ._atan import vectorized_arccos
 from ._norm import safe_norm, safe_normalize
-from ._sincos import vectorized_cos
+from ._sincos import vectorized_sincos
 
 
 def _adjugate3(a: Float[Array, "3 3"]) -> Float[Array, "3 3"]:
@@ -126,8 +126,11 @@ def _smith(m: Float[Array, "3 3"]):
     inside = jnp.abs(r) < 1
     angle = vectorized_arccos(jnp.where(inside, r, 0))
     phi = jnp.where(inside, angle, jnp.where(r >= 1, 0, math.pi)) / 3
-    largest = q + 2 * p * vectorized_cos(phi)
-    smallest = q + 2 * p * vectorized_cos(phi + 2 * math.pi / 3)
+    sin_phi, cos_phi = vectorized_sincos(phi)
+    largest = q + 2 * p * cos_phi
+    # 2 cos(phi + 2 pi/3) = -(cos phi + sqrt(3) sin phi): one reduction for both, and no
+    # cancellation (phi in [0, pi/3], both terms >= 0).
+    smallest = q - p * (cos_phi + math.sqrt(3) * sin_phi)
     return r, largest, smallest
 
 
