@@ -100,3 +100,11 @@ def primitives(closed_jaxpr) -> set[str]:
 
     walk(closed_jaxpr.jaxpr)
     return names
+
+
+def ulps(value: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """Error of `value` in units in the last place of `reference`. A subnormal reference counts
+    as 0 of its sign: XLA:CPU flushes subnormal results to zero."""
+    flushed = np.abs(reference) < np.finfo(np.float64).tiny
+    reference = np.where(flushed, np.copysign(0.0, reference), reference)
+    return np.abs(value - reference) / np.spacing(np.abs(reference))

@@ -75,7 +75,7 @@ _TINY = 2.0**-27
 
 
 def _horner(z: Array, coefficients: tuple[float, ...]) -> Array:
-    result = jnp.full_like(z, coefficients[-1])
+    result = coefficients[-1]
     for c in coefficients[-2::-1]:
         result = c + z * result
     return result
@@ -121,7 +121,7 @@ def _atan2_float64(y: Array, x: Array) -> Array:
     # (atan2(+-0, +-0) = +-0 or +-pi) and inf/inf as 1 (+-pi/4 or +-3pi/4); a NaN stays NaN.
     both_zero = (ay == 0) & (ax == 0)
     both_infinite = jnp.isinf(ay) & jnp.isinf(ax)
-    ay = jnp.where(both_zero, 0.0, jnp.where(both_infinite, 1.0, ay))
+    ay = jnp.where(both_infinite, 1.0, ay)
     ax = jnp.where(both_zero | both_infinite, 1.0, ax)
     z = _atan_of_ratio(ay, ax)
     # Beyond 2^60 (x = +-0 included) the angle rounds to pi/2 on either side of the y axis;

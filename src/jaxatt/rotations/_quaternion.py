@@ -148,7 +148,8 @@ def quat_angle(q: Float[ArrayLike, "4"]) -> Float[Array, ""]:
     cos_half = q[0] * sign(q[0])
     # The C library's atan2, not `vectorized_arctan2`: in Chen 2022's Monte Carlo timing the
     # convergence of this angle, the vectorized one ran 0.93x as fast at 1000 samples (1.07x
-    # at 10 000; benchmarks/README.md, "Arctangents and arccosines that vectorize").
+    # at 10 000; benchmarks/README.md, "Arctangents and an arccosine that
+    # vectorize").
     # Double where: atan2(0, 0) has a 0/0 derivative; only the zero quaternion reaches it.
     # (Tested as "both zero", so that a NaN quaternion gives a NaN angle, never 0.)
     zero = (sin_half == 0) & (cos_half == 0)
