@@ -56,6 +56,27 @@ def _scan_intervals(body, carry, n: int, sim: Simulation):
     return lax.scan(body, carry, jnp.arange(n))
 
 
+def _scan_body(step, module, carry0, sim: Simulation, *, outputs: bool = False) -> tuple:
+    """The `lax.scan` body running `carry = step(module, carry, i)` (with `outputs=True`,
+    `step` returns `(carry, out)`), as [`scalarized_loop_step`][] returns it: `(flat0, body,
+    unflatten)`, and `unflatten_outputs` with `outputs=True`.
+
+    Scalarized (`._scalarize`) when `sim.performance.scalarize`; otherwise the step as it is,
+    `flat0` is `carry0` and the unflattens are the identity.
+    """
+    if sim.performance.scalarize:
+        return scalarized_loop_step(step, module, carry0, sim.performance.limits, outputs=outputs)
+
+    def body(carry, i):
+        result = step(module, carry, i)
+        return result if outputs else (result, None)
+
+    def identity(tree):
+        return tree
+
+    return (carry0, body, identity, identity) if outputs else (carry0, body, identity)
+
+
 class Streamed(eqx.Module):
     """What [`integrate_streaming`][] returns: the stream's final state, and the run's status,
     failure time and events as in a [`Trajectory`][] (nothing else is stored)."""
@@ -192,20 +213,8 @@ def _run(closed_loop, x0, sim, stream):
         return _run_streaming(closed_loop, sim, stream, one_step, sample, time, carry0, start)
     if shares_first_stage:
         return _run_saving_every_step(closed_loop, sim, one_step, observe_at_start, time, carry0)
-    if sim.performance.scalarize:
-        # The time loop runs on scalar entries (a struct of arrays under vmap): `._scalarize`.
-        flat0, step, unflatten = scalarized_loop_step(
-            one_step, closed_loop, carry0, sim.performance.limits
-        )
-    else:
-        flat0 = carry0
-
-        def step(carry, i):
-            return one_step(closed_loop, carry, i), None
-
-        def unflatten(carry):
-            return carry
-
+    # Scalarized, the time loop runs on scalar entries (a struct of arrays under vmap).
+    flat0, step, unflatten = _scan_body(one_step, closed_loop, carry0, sim)
     every = sim.save_every
     n_intervals = sim.n_steps // every
 
@@ -254,22 +263,9 @@ def _run_saving_every_step(closed_loop, sim, one_step, observe_at_start, time, c
         carry = one_step(loop, carry, i, start_derivative)
         return carry, (carry[0], signals)
 
-    if sim.performance.scalarize:
-        flat0, body, unflatten, unflatten_outputs = scalarized_loop_step(
-            save_step, closed_loop, carry0, sim.performance.limits, outputs=True
-        )
-    else:
-        flat0 = carry0
-
-        def body(carry, i):
-            return save_step(closed_loop, carry, i)
-
-        def unflatten(carry):
-            return carry
-
-        def unflatten_outputs(stacked):
-            return stacked
-
+    flat0, body, unflatten, unflatten_outputs = _scan_body(
+        save_step, closed_loop, carry0, sim, outputs=True
+    )
     flat, stacked = _scan_intervals(body, flat0, sim.n_steps, sim)
     ys, signals = unflatten_outputs(stacked)
     y, *_, status, failure_time, events = unflatten(flat)
@@ -336,6 +332,11 @@ def _run_streaming(
             )
         return one_step(loop, inner, i), state
 
+    def plain_step(module, carry, i):
+        """A step that leaves the stream's state alone (it is updated per interval)."""
+        inner, state = carry
+        return one_step(module[0], inner, i), state
+
     t_last = time(sim.n_steps)
     signals0 = closed_loop.signals(time(0), y0, held0)
     state0 = stream.init(time(0), signals0, t_last)
@@ -350,21 +351,9 @@ def _run_streaming(
         pairs = plan_pairs(jtu.tree_leaves(state0), reads)
         stream = _PairedStream(stream, pairs)
         state0 = pair(state0, pairs)
-        flat0, step, unflatten = scalarized_loop_step(
-            streaming_step, (closed_loop, stream), (carry0, state0), sim.performance.limits
-        )
-    else:
-        module = (closed_loop, stream)
-        flat0 = (carry0, state0)
-
-        def step(carry, i):
-            if per_interval:
-                inner, state = carry
-                return (one_step(closed_loop, inner, i), state), None
-            return streaming_step(module, carry, i), None
-
-        def unflatten(carry):
-            return carry
+    flat0, step, unflatten = _scan_body(
+        plain_step if per_interval else streaming_step, (closed_loop, stream), (carry0, state0), sim
+    )
 
     def interval(flat, j):
         i = j * every
