@@ -4,11 +4,14 @@
 dt = 1e-3 s, 30 N m per-axis saturation), initial states from
 `jaxatt.scenarios.chen2022_tuning.initial_states(jr.key(seed), n)`.
 
-**What runs.** `bench_montecarlo.make_jaxatt(call, T, dt, save_every)`: with `--jaxatt-call
-monte_carlo` (default) `eqx.filter_jit` of `jaxatt.montecarlo.monte_carlo(loop, x0s, 0, T,
-dt=dt, save_every=S, keep_trajectories=True)` (what users call: from 1000 samples on it runs
-the loop with `performance=Performance(scalarize=True)`, so the batch sweep shows that
-switch); with `monte_carlo_plain` the same call with
+**What runs.** `_quick.make_jaxatt(call, T, dt, save_every)`: with `--jaxatt-call
+monte_carlo_default` (default) `eqx.filter_jit` of `jaxatt.montecarlo.monte_carlo(loop, x0s,
+0, T, dt=dt)`, every option at its default, what users call first (default metrics reduced on
+the fly at every step, nothing saved; from 1000 samples on it runs the loop with
+`performance=Performance(scalarize=True)`, so the batch sweep shows that switch; the final
+states for the checks come from a separate, untimed call keeping one save at T); with
+`monte_carlo` the former configuration, `monte_carlo(loop, x0s, 0, T, dt=dt, save_every=S,
+keep_trajectories=True)`; with `monte_carlo_plain` that call with
 `performance=jaxatt.simulation.Performance(scalarize=False)`, the plain vmapped program at
 every batch. The loop is an argument, `S` is the largest divisor of the step count not above
 steps/10 (11 saves).
@@ -20,9 +23,10 @@ steps/10 (11 saves).
 2. **Horizon sweep** (`--horizons`, at `--horizon-batch`): the same against the horizon; the run
    time should be linear in the steps and the compile time independent of them.
 3. **Chunks** (`--chunk`): at the largest batch over `--chunk-horizon` (2 s),
-   `monte_carlo(loop, x0s, 0, T, dt=dt, save_every=S, batch_size=B)` (`lax.map` over chunks
-   of B vmapped samples, default metrics only) for each B in `--chunk-sizes`, against the same
-   call with `batch_size=None`: whether cache-sized chunks beat one vmap of everything.
+   `monte_carlo(loop, x0s, 0, T, dt=dt, batch_size=B)` (`lax.map` over chunks of B vmapped
+   samples, default metrics streamed at every step; with `save_every=S` added unless the call
+   is `monte_carlo_default`) for each B in `--chunk-sizes`, against the same call with
+   `batch_size=None`: whether cache-sized chunks beat one vmap of everything.
 
 Timing as in `bench_montecarlo.py`: ahead-of-time `lower(...).compile()` timed alone, one
 warm-up call, then `min(timeit.repeat(lambda: jax.block_until_ready(f(loop, x0s)), number=1,
@@ -78,7 +82,9 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--horizons", type=float, nargs="+", default=[1.0, 3.0, 10.0, 30.0], help="[s]")
     p.add_argument("--horizon-batch", type=int, default=1024, help="batch of the horizon sweep")
     p.add_argument(
-        "--jaxatt-call", choices=sorted(common.montecarlo.JAXATT_CALLS), default="monte_carlo"
+        "--jaxatt-call",
+        choices=sorted(common.montecarlo.JAXATT_CALLS),
+        default="monte_carlo_default",
     )
     p.add_argument("--chunk", action="store_true", help="also time lax.map chunk sizes")
     p.add_argument("--chunk-sizes", type=int, nargs="+", default=[256, 1024, 4096])
@@ -240,7 +246,11 @@ def batch_sweep(loop, pool, args) -> tuple[list[dict], float]:
     rows, finals = [], []
     print(f"batch sweep, T = {args.horizon:g} s ({steps} steps):")
     for batch in sorted(args.batches):
-        row, (final, successful, _) = measure(run, loop, common.take(pool, batch), steps, args)
+        x0s = common.take(pool, batch)
+        row, (final, successful, _) = measure(run, loop, x0s, steps, args)
+        if final is None:  # the default call keeps no trajectory: final states from another call
+            check = common.montecarlo.make_jaxatt("monte_carlo", args.horizon, args.dt, steps)
+            final = check(loop, x0s)[0]
         row["failed_samples"] = int(np.sum(~np.asarray(successful)))
         finals.append(np.asarray(final))
         rows.append(row)
@@ -291,7 +301,11 @@ def chunk_study(loop, pool, args) -> tuple[list[dict], float | None]:
     from jaxatt.simulation import Performance, samples_at_once
 
     steps = common.steps_of(args.chunk_horizon, args.dt)
-    save_every = common.default_save_every(steps)
+    saving = (
+        {}
+        if args.jaxatt_call == "monte_carlo_default"
+        else {"save_every": common.default_save_every(steps)}
+    )
     x0s = common.take(pool, args.chunk_batch)
     print(
         f"chunks: monte_carlo(..., batch_size=B) at batch {args.chunk_batch}, "
@@ -308,8 +322,8 @@ def chunk_study(loop, pool, args) -> tuple[list[dict], float | None]:
                 0.0,
                 args.chunk_horizon,
                 dt=args.dt,
-                save_every=save_every,
                 batch_size=size,
+                **saving,
             )
             return out.metrics, out.successful
 
@@ -353,7 +367,7 @@ def main(args) -> int:
     common.print_meta(
         meta,
         f"scenario chen2022_two_phase_power M1, RK4 dt {args.dt} s, {args.dtype}; jaxatt call "
-        f"({args.jaxatt_call}): {call}; save_every = steps/10 (11 saves)",
+        f"({args.jaxatt_call}): {call}; S = steps/10 (11 saves)",
     )
     tol = 1e-9 if args.dtype == "float64" else 1e-4
     biggest = max(*args.batches, args.horizon_batch, args.chunk_batch if args.chunk else 1)
