@@ -14,8 +14,14 @@ would take over `--max-seconds`).
 
 Implementations timed in the same run:
 
-- jaxatt: `eqx.filter_jit(jax.vmap(simulate(..., throw=False, save_every=steps/10)))`, the
-  closed loop passed as an argument (changing gains does not recompile).
+- jaxatt `vmap(simulate)`: `eqx.filter_jit(jax.vmap(simulate(..., throw=False,
+  save_every=steps/10)))`, the closed loop passed as an argument (changing gains does not
+  recompile): what a user who vmaps `simulate` gets (one sample's program, batched).
+- jaxatt `monte_carlo`: the batch runner's default call, `monte_carlo(loop, x0s, 0, T,
+  dt=dt)` (default metrics reduced on the fly, nothing saved, scalarized on CPU from 1000
+  samples), compiled with the XLA options it passes when called eagerly (`_quick.UserProgram`).
+  Its final states for the checks come from a separate, untimed call at the largest batch
+  (`keep_trajectories=True`, one save at T).
 - NumPy: classic RK4 over the whole batch written here from the equations, struct-of-arrays
   (one array of shape (batch,) per state component), explicit adjugate inverse of J(t), clip
   saturation, shadow switch after each step. At large batches it runs a shorter horizon
@@ -48,10 +54,11 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 from _common import finish  # load average, JSON, exit code
-from _quick import run_time, time_jax  # the shared timing
+from _quick import UserProgram, run_time, time_jax  # the shared timing
 from bench_montecarlo import machine_meta
 from scipy.integrate import solve_ivp
 
+from jaxatt.montecarlo import monte_carlo
 from jaxatt.plants import MRPState
 from jaxatt.scenarios import rigid_body_pd
 from jaxatt.simulation import simulate
@@ -317,6 +324,19 @@ def main(args):
 
         return jax.vmap(one)(x0s)
 
+    def default_call(loop, x0s):
+        out = monte_carlo(loop, x0s, 0.0, args.horizon, dt=args.dt)
+        return out.successful, out.metrics
+
+    def final_states(loop, x0s):  # untimed, for the checks
+        out = monte_carlo(
+            loop, x0s, 0.0, args.horizon, dt=args.dt, save_every=n_steps, keep_trajectories=True
+        )
+        plant = out.trajectories.states.plant
+        return plant.sigma[:, -1], plant.omega[:, -1]
+
+    monte_carlo_batch, monte_carlo_final = UserProgram(default_call), UserProgram(final_states)
+
     meta = machine_meta()
     cpu_model = meta["cpu_model"]
     print("devices:", meta["devices"], "| kind:", meta["device_kind"])
@@ -370,6 +390,18 @@ def main(args):
             "failed_samples": failed,
             "timed_repeats": n,
         }
+        compile_s, run_s, out, n = time_jax(
+            monte_carlo_batch, (loop, x0s), args.repeat, args.max_seconds
+        )
+        row["monte_carlo"] = {
+            "compile_s": compile_s,
+            "run_s": run_s,
+            "state_steps_per_s": batch * n_steps / run_s,
+            "failed_samples": int(np.sum(~np.asarray(out[0]))),
+            "timed_repeats": n,
+        }
+        if batch == max(args.batches):
+            monte_carlo_out = tuple(np.asarray(a) for a in monte_carlo_final(loop, x0s))
 
         if not args.no_scan:
             scan = make_scan(n_steps, args.dt, dtype)
@@ -405,11 +437,16 @@ def main(args):
         rate = row["jaxatt"]["state_steps_per_s"]
         row["ratio_jaxatt_numpy"] = rate / row["numpy"]["state_steps_per_s"]
         row["ratio_jaxatt_scipy"] = rate / scipy_rate if n_sp else None
+        mc_rate = row["monte_carlo"]["state_steps_per_s"]
+        row["ratio_monte_carlo_numpy"] = mc_rate / row["numpy"]["state_steps_per_s"]
+        row["ratio_monte_carlo_scipy"] = mc_rate / scipy_rate if n_sp else None
         if "scan" in row:
             row["ratio_jaxatt_scan"] = rate / row["scan"]["state_steps_per_s"]
+            row["ratio_monte_carlo_scan"] = mc_rate / row["scan"]["state_steps_per_s"]
         rows.append(row)
         print(
-            f"  batch {batch:>6}: jaxatt {fmt_rate(rate)} state-steps/s, NumPy "
+            f"  batch {batch:>6}: vmap(simulate) {fmt_rate(rate)}, monte_carlo "
+            f"{fmt_rate(mc_rate)} state-steps/s, NumPy "
             f"{fmt_rate(row['numpy']['state_steps_per_s'])}"
             + (f" ({np_steps} steps, scaled)" if np_steps < n_steps else "")
             + (f", scan {fmt_rate(row['scan']['state_steps_per_s'])}" if "scan" in row else ""),
@@ -422,12 +459,15 @@ def main(args):
     k = min(args.check_samples, big)
     ns, nw, switches = numpy_rk4(pool_sigma[:k], pool_omega[:k], n_steps, args.dt)
     err_numpy = float(max(np.max(np.abs(ns - js[:k])), np.max(np.abs(nw - jw[:k]))))
+    ms, mw = monte_carlo_out
+    err_monte_carlo = float(max(np.max(np.abs(ms - js)), np.max(np.abs(mw - jw))))
     correctness = {
         "reference_batch": big,
         "numpy_samples": k,
         "numpy_shadow_switches": switches.tolist(),
         "max_abs_diff_numpy": err_numpy,
         "tolerance_numpy": tol_numpy,
+        "max_abs_diff_monte_carlo_vs_vmap": err_monte_carlo,
     }
     if scan_out:
         ss, sw = scan_out[big]
@@ -452,16 +492,26 @@ def main(args):
             "tolerance_scipy": tol_scipy,
         }
     )
-    ok = err_numpy <= tol_numpy and (err_scipy is None or err_scipy <= tol_scipy)
+    ok = (
+        err_numpy <= tol_numpy
+        and err_monte_carlo <= tol_numpy
+        and (err_scipy is None or err_scipy <= tol_scipy)
+        and all(row["monte_carlo"]["failed_samples"] == 0 for row in rows)
+    )
     correctness["passed"] = ok
 
     header = (
         f"{'batch':>6} | {'jaxatt compile s':>16} | {'jaxatt run s':>12} | {'jaxatt st-st/s':>14}"
+        f" | {'mc compile s':>12} | {'mc st-st/s':>10}"
         f" | {'NumPy run s':>11} | {'NumPy st-st/s':>13} | {'SciPy run s':>11}"
         f" | {'SciPy st-st/s':>13} | {'jaxatt/NumPy':>12} | {'jaxatt/SciPy':>12}"
+        f" | {'mc/NumPy':>8} | {'mc/SciPy':>8}"
     )
     if scan_out:
-        header += f" | {'scan compile s':>14} | {'scan st-st/s':>12} | {'jaxatt/scan':>11}"
+        header += (
+            f" | {'scan compile s':>14} | {'scan st-st/s':>12} | {'jaxatt/scan':>11}"
+            f" | {'mc/scan':>7}"
+        )
     print()
     print(
         f"Measured on {meta['device_kind']} ({cpu_model}, {meta['cpu_count']} CPUs), "
@@ -476,21 +526,27 @@ def main(args):
         line = (
             f"{row['batch']:>6} | {ja['compile_s']:>16.2f} | {ja['run_s']:>12.4g} | "
             f"{fmt_rate(ja['state_steps_per_s']):>14} | "
+            f"{row['monte_carlo']['compile_s']:>12.2f} | "
+            f"{fmt_rate(row['monte_carlo']['state_steps_per_s']):>10} | "
             f"{nu['run_s']:>10.4g}{'*' if nu['scaled'] else ' '} | "
             f"{fmt_rate(nu['state_steps_per_s']):>13} | "
             f"{sp_run:>10}+ | "
             f"{fmt_rate(sp['state_steps_per_s'] if sp else None):>13} | "
-            f"{row['ratio_jaxatt_numpy']:>12.3g} | {fmt_rate(row['ratio_jaxatt_scipy']):>12}"
+            f"{row['ratio_jaxatt_numpy']:>12.3g} | {fmt_rate(row['ratio_jaxatt_scipy']):>12} | "
+            f"{row['ratio_monte_carlo_numpy']:>8.3g} | "
+            f"{fmt_rate(row['ratio_monte_carlo_scipy']):>8}"
         )
         if "scan" in row:
             line += (
                 f" | {row['scan']['compile_s']:>14.2f} | "
                 f"{fmt_rate(row['scan']['state_steps_per_s']):>12} | "
-                f"{row['ratio_jaxatt_scan']:>11.3g}"
+                f"{row['ratio_jaxatt_scan']:>11.3g} | {row['ratio_monte_carlo_scan']:>7.3g}"
             )
         print(line)
     notes = [
         "state-steps = batch x number of classic RK4 steps (4 vector-field evaluations each)",
+        "jaxatt = jax.vmap(simulate) in one filter_jit; mc = monte_carlo's default call "
+        "(default metrics streamed, nothing saved, scalarized from 1000 samples)",
         "compile s = ahead-of-time trace + lower + XLA compile (no run); run s = min over up "
         f"to {args.repeat} timeit repeats after a warm-up call, fewer when they would take "
         f"over {args.max_seconds:g} s ('timed_repeats' in the JSON; 0 = the warm-up call is "
@@ -510,6 +566,11 @@ def main(args):
     print(
         f"check: max |NumPy - jaxatt| on {k} samples at t = {args.horizon} s: {err_numpy:.3g} "
         f"(tolerance {tol_numpy:g}); shadow switches per sample {switches.tolist()}"
+    )
+    print(
+        f"check: max |monte_carlo - vmap(simulate)| final states on {big} samples: "
+        f"{err_monte_carlo:.3g} (tolerance {tol_numpy:g}); monte_carlo's failed samples: "
+        f"{sum(row['monte_carlo']['failed_samples'] for row in rows)}"
     )
     if scan_out:
         print(
