@@ -9,6 +9,8 @@ import pytest
 
 from jaxatt import rotations as rot
 
+from ..helpers import primitives
+
 
 def _axis_angle_np(axis, angle):
     axis = np.asarray(axis, dtype=np.float64)
@@ -208,3 +210,22 @@ _V32 = np.asarray(OMEGA[0], dtype=np.float32)
 )
 def test_float32_in_float32_out(fn, args):
     assert jax.eval_shape(fn, *args).dtype == jnp.float32
+
+
+@pytest.mark.parametrize("fn, error", [(rot.rate_error, Q[0]), (rot.rate_error_mrp, Q[0, 1:])])
+def test_a_known_zero_desired_rate_gives_the_formulas_value_with_no_arithmetic(fn, error):
+    """A NumPy zero `omega_d` (ConstantAttitude's) is known when the program is traced: the
+    rate error is `omega` itself, as the formula gives, in the formula's dtype, and the traced
+    program computes nothing. Traced zeros still go through the formula."""
+    zero = np.zeros(3)
+    formula = jax.jit(fn)  # inside jit the zero is an argument: the formula
+    np.testing.assert_array_equal(fn(error, OMEGA[0], zero), formula(error, OMEGA[0], zero))
+    np.testing.assert_array_equal(fn(error, OMEGA[0], zero), OMEGA[0])
+    known = jax.make_jaxpr(lambda e, w: fn(e, w, zero))(error, OMEGA[0])
+    assert not primitives(known) & {"mul", "sub", "dot_general", "div"}
+    traced = jax.make_jaxpr(fn)(error, OMEGA[0], zero)
+    assert primitives(traced) & {"mul", "sub", "dot_general"}
+    e32, w32 = np.asarray(error, np.float32), OMEGA[0].astype(np.float32)
+    for zeros in (np.zeros(3, np.float32), zero):  # float32 stays, a float64 zero promotes
+        shortcut = jax.eval_shape(lambda e, w, zeros=zeros: fn(e, w, zeros), e32, w32)
+        assert shortcut.dtype == formula.eval_shape(e32, w32, zeros).dtype

@@ -4,9 +4,10 @@ import abc
 from typing import ClassVar
 
 import equinox as eqx
-from jaxtyping import Array, PyTree
+import numpy as np
+from jaxtyping import Array, Float, PyTree
 
-from .._custom_types import Quaternion, RealScalarLike, Vec3
+from .._custom_types import Quaternion, RealScalarLike
 
 
 class AttitudeReference(eqx.Module):
@@ -15,11 +16,15 @@ class AttitudeReference(eqx.Module):
     - `q_d`: desired attitude quaternion (scalar first, desired frame relative to inertial).
     - `omega_d`: desired angular velocity in desired-frame components [rad/s].
     - `omega_d_dot`: its time derivative [rad/s^2].
+
+    The rates may be NumPy arrays: constants known when the program is traced, such as
+    [`ConstantAttitude`][jaxatt.references.ConstantAttitude]'s zeros, which the rate-error
+    helpers of [`jaxatt.rotations`][] use to skip multiplying by zero.
     """
 
     q_d: Quaternion
-    omega_d: Vec3
-    omega_d_dot: Vec3
+    omega_d: Float[Array | np.ndarray, "3"]
+    omega_d_dot: Float[Array | np.ndarray, "3"]
 
 
 class AbstractReference(eqx.Module):

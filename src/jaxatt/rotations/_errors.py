@@ -3,13 +3,31 @@ r"""Tracking errors between the body attitude and a desired attitude (SPEC seed 
 The error is the attitude of the body frame B relative to the desired frame D,
 $e = q_d^{-1} \otimes q$ (so $q = q_d \otimes e$), and its attitude matrix
 $C(e) = C_{BD} = C_{BN} C_{DN}^\top$ maps desired-frame components to body components.
+
+**Zero reference rates.** When the desired rate is a NumPy constant zero (what
+[`jaxatt.references.ConstantAttitude`][] gives), the rate errors return the body rate, in the
+dtype the formula would give: $\omega - C\,0 = \omega$, the formula's value (up to the sign
+of a zero, and inf where the formula would give NaN for an infinite $C$), with no arithmetic
+emitted. XLA cannot drop the product itself: it keeps $x \cdot 0$, which is NaN for an
+infinite $x$.
 """
 
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from ._mrp import mrp_compose, mrp_to_dcm
 from ._quaternion import quat_conjugate, quat_multiply, quat_to_dcm
+
+
+def _is_known_zero(x) -> bool:
+    """Whether `x` is a NumPy constant (known when the program is traced) of zeros."""
+    return isinstance(x, np.ndarray | np.generic) and not np.any(x)
+
+
+def _unchanged(x, other) -> Array:
+    """`x`, in the dtype that combining it with `other` gives."""
+    return jnp.asarray(x, jnp.result_type(x, other))
 
 
 def attitude_error_quat(q: Float[ArrayLike, "4"], q_d: Float[ArrayLike, "4"]) -> Float[Array, "4"]:
@@ -48,6 +66,8 @@ def rate_error(
     - `omega`: body rate in body components [rad/s].
     - `omega_d`: desired rate in desired-frame components [rad/s].
     """
+    if _is_known_zero(omega_d):
+        return _unchanged(omega, jnp.result_type(e, omega_d))
     return jnp.asarray(omega) - quat_to_dcm(e) @ jnp.asarray(omega_d)
 
 
@@ -84,4 +104,6 @@ def rate_error_mrp(
     Same as [`rate_error`][] with $C(\sigma_e)$ = `mrp_to_dcm(sigma_e)` (desired frame to body
     frame); along the motion $\dot\sigma_e = G(\sigma_e)(\omega - C(\sigma_e)\omega_d)$.
     """
+    if _is_known_zero(omega_d):
+        return _unchanged(omega, jnp.result_type(sigma_e, omega_d))
     return jnp.asarray(omega) - mrp_to_dcm(sigma_e) @ jnp.asarray(omega_d)
