@@ -2,9 +2,11 @@
 
 `jaxatt.references.ConstantAttitude` returns its zero rates as NumPy constants, and the rate
 errors of `jaxatt.rotations` (`rate_error`, `rate_error_mrp`) return the body rate when the
-desired rate is a NumPy zero, instead of computing omega - C(e) 0 at every stage. Before, the
-zeros were `jnp.zeros`, arrays of the traced program, and the rotation of a zero vector was
-computed (XLA keeps x * 0, which is NaN for an infinite x).
+desired rate is a NumPy zero, instead of computing omega - C(e) 0 at every stage; the
+finite-time MRP laws (`jaxatt.controllers._finite_time`) likewise drop their feed-forward's
+rotated desired rate and acceleration. Before, the zeros were `jnp.zeros`, arrays of the
+traced program, and the rotations of a zero vector were computed (XLA keeps x * 0, which is
+NaN for an infinite x).
 
 For each scenario and batch the script compiles the call `jaxatt.montecarlo.monte_carlo(loop,
 x0s, 0, T, dt=dt)` (every other option at its default: default metrics reduced on the fly,
@@ -13,16 +15,16 @@ scalarized on CPU from 1000 samples, compiled with the XLA options the eager cal
 `TracedZeroRates`, a reference that returns the same identity attitude with `jnp.zeros` rates
 (the program before the change). It times them round robin (one warm-up each, then `--repeat`
 rounds, min per program) and checks that their metrics and final states (an untimed call with
-`keep_trajectories=True` and one save at T) agree to `--rtol` (1e-15: the rate errors are
-the same numbers, and a norm that XLA fuses differently may round one ulp apart); it exits 1
-otherwise.
+`keep_trajectories=True` and one save at T) agree to `--rtol` (1e-12, relative per entry):
+the values are the same numbers, but a program that XLA fuses differently rounds its last
+bits differently, and Yu 2022's finite-time law amplifies such differences while it
+converges (2.6e-14 in its final states at 10 000 samples); it exits 1 otherwise.
 
 - `rigid_body_pd`: `jaxatt.scenarios.rigid_body_pd.build()` (MRP PD law `MRPPD`, whose rate
   error is `rate_error_mrp`; saturation, shadow switching) from
   `random_initial_states(key(seed), B)`;
 - `yu2022`: Yu et al. (2022)'s finite-time law with its disturbance observer
-  (`jaxatt.scenarios.yu2022_ftac_mrp.build("FTAC")`, which rotates the desired rate itself and
-  so is not expected to change) from the same states scaled by 0.3.
+  (`jaxatt.scenarios.yu2022_ftac_mrp.build("FTAC")`) from the same states scaled by 0.3.
 
 Usage (from the repository root):
 
@@ -52,7 +54,7 @@ SCENARIOS = ("rigid_body_pd", "yu2022")
 def parse_args(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--batches", type=int, nargs="+", default=[1, 100, 1000, 10000])
-    p.add_argument("--rtol", type=float, default=1e-15, help="tolerance of the checks (relative)")
+    p.add_argument("--rtol", type=float, default=1e-12, help="tolerance of the checks (relative)")
     p.add_argument("--horizon", type=float, default=1.0, help="simulated time [s]")
     p.add_argument("--scenarios", nargs="+", choices=SCENARIOS, default=list(SCENARIOS))
     common.add_common_arguments(p)

@@ -38,6 +38,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
+from .._constants import is_known_zero
 from .._custom_types import MRP, Mat33, RealScalarLike, Scalar, Vec3
 from .._validation import check_gain_shape, check_in_open_interval, check_positive, check_spd
 from ..numerics import abs_pow, sig_pow
@@ -58,12 +59,18 @@ def homogeneous_exponent(alpha1: Float[ArrayLike, "..."]) -> Float[Array, "..."]
 class _Errors(eqx.Module):
     e: MRP
     v: Vec3
-    desired_rate: Vec3  # R(e) omega_d, body components
-    desired_acceleration: Vec3  # R(e) omega_d_dot
+    desired_rate: Vec3 | None  # R(e) omega_d, body components; None: known zero
+    desired_acceleration: Vec3 | None  # R(e) omega_d_dot; None: known zero
 
 
 def _errors(measurement: MRPState, reference: AttitudeReference) -> _Errors:
     e = attitude_error_mrp(measurement.sigma, mrp_from_quat(reference.q_d))
+    if is_known_zero(reference.omega_d) and is_known_zero(reference.omega_d_dot):
+        # A reference at rest known when the program is traced (ConstantAttitude): R(e) 0 = 0
+        # and v = omega exactly; nothing to rotate (benchmarks/README.md, "Zero reference
+        # rates known when the program is traced").
+        dtype = jnp.result_type(measurement.omega, e, reference.omega_d)
+        return _Errors(e, jnp.asarray(measurement.omega, dtype), None, None)
     dcm = mrp_to_dcm(e)
     desired_rate = dcm @ reference.omega_d
     return _Errors(
@@ -84,9 +91,11 @@ def _feedforward(inertia: Mat33 | None, omega: Vec3, errors: _Errors) -> Vec3:
     if inertia is None:
         return jnp.zeros_like(errors.v)
     v = errors.v
+    gyroscopic = jnp.cross(omega, inertia @ omega) - jnp.cross(v, inertia @ v)
+    if errors.desired_rate is None:  # at rest: both reference terms are exactly zero
+        return gyroscopic
     return (
-        jnp.cross(omega, inertia @ omega)
-        - jnp.cross(v, inertia @ v)
+        gyroscopic
         + inertia @ errors.desired_acceleration
         - inertia @ jnp.cross(v, errors.desired_rate)
     )

@@ -19,11 +19,12 @@ class ConstantAttitude(AbstractReference):
 
     The zero rates are NumPy constants, known when the closed loop is traced: the rate errors
     of [`jaxatt.rotations`][] ([`rate_error`][jaxatt.rotations.rate_error],
-    [`rate_error_mrp`][jaxatt.rotations.rate_error_mrp]) are then the body rate itself, with
-    no rotation of a zero vector computed at every stage (a rigid body under an MRP PD law
-    ran 1.5-2.6x faster from 1 to 10 000 samples; benchmarks/README.md, "Zero reference rates
-    known when the program is traced"). `q_d` is an array, a leaf of the closed loop like any
-    gain.
+    [`rate_error_mrp`][jaxatt.rotations.rate_error_mrp]) are then the body rate itself, and
+    the finite-time MRP laws leave out their feed-forward's reference terms, with no rotation
+    of a zero vector computed at every stage (a rigid body under an MRP PD law ran 1.5-2.7x
+    faster from 1 to 10 000 samples, Yu et al. (2022)'s loop 1.13-1.36x; benchmarks/README.md,
+    "Zero reference rates known when the program is traced"). `q_d` is an array, a leaf of
+    the closed loop like any gain.
     """
 
     q_d: Quaternion

@@ -13,16 +13,11 @@ infinite $x$.
 """
 
 import jax.numpy as jnp
-import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._constants import is_known_zero
 from ._mrp import mrp_compose, mrp_to_dcm
 from ._quaternion import quat_conjugate, quat_multiply, quat_to_dcm
-
-
-def _is_known_zero(x) -> bool:
-    """Whether `x` is a NumPy constant (known when the program is traced) of zeros."""
-    return isinstance(x, np.ndarray | np.generic) and not np.any(x)
 
 
 def _unchanged(x, other) -> Array:
@@ -66,7 +61,7 @@ def rate_error(
     - `omega`: body rate in body components [rad/s].
     - `omega_d`: desired rate in desired-frame components [rad/s].
     """
-    if _is_known_zero(omega_d):
+    if is_known_zero(omega_d):
         return _unchanged(omega, jnp.result_type(e, omega_d))
     return jnp.asarray(omega) - quat_to_dcm(e) @ jnp.asarray(omega_d)
 
@@ -104,6 +99,6 @@ def rate_error_mrp(
     Same as [`rate_error`][] with $C(\sigma_e)$ = `mrp_to_dcm(sigma_e)` (desired frame to body
     frame); along the motion $\dot\sigma_e = G(\sigma_e)(\omega - C(\sigma_e)\omega_d)$.
     """
-    if _is_known_zero(omega_d):
+    if is_known_zero(omega_d):
         return _unchanged(omega, jnp.result_type(sigma_e, omega_d))
     return jnp.asarray(omega) - mrp_to_dcm(sigma_e) @ jnp.asarray(omega_d)
