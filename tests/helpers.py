@@ -2,6 +2,7 @@
 the primitives of a jaxpr."""
 
 import jax
+import jax.extend.core as jex
 import jax.numpy as jnp
 import numpy as np
 
@@ -83,6 +84,27 @@ def compile_count(name: str | None = None) -> int:
     if name is None:
         return len(_BACKEND_COMPILES)
     return sum(name in fun for fun in _BACKEND_COMPILES)
+
+
+def sub_jaxprs(eqn):
+    """The jaxprs nested in an equation's parameters (calls, loop bodies, branches)."""
+    for value in eqn.params.values():
+        for item in value if isinstance(value, tuple | list) else (value,):
+            if isinstance(item, jex.ClosedJaxpr):
+                yield item.jaxpr
+            elif isinstance(item, jex.Jaxpr):
+                yield item
+
+
+def count_primitive(jaxpr, primitive: str) -> int:
+    """How many `primitive` equations a jaxpr (or closed jaxpr) holds, nested calls and loops
+    included."""
+    jaxpr = getattr(jaxpr, "jaxpr", jaxpr)
+    n = 0
+    for eqn in jaxpr.eqns:
+        n += eqn.primitive.name == primitive
+        n += sum(count_primitive(sub, primitive) for sub in sub_jaxprs(eqn))
+    return n
 
 
 def primitives(closed_jaxpr) -> set[str]:

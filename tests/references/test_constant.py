@@ -4,7 +4,6 @@ regulated with it computes what it computed with traced zeros."""
 from typing import ClassVar
 
 import jax
-import jax.extend
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -14,6 +13,8 @@ from jaxatt import simulate
 from jaxatt.references import AbstractReference, AttitudeReference, ConstantAttitude
 from jaxatt.scenarios import rigid_body_pd, yu2022_ftac_mrp
 from jaxatt.simulation import ClosedLoop
+
+from ..helpers import count_primitive
 
 
 class TracedZeroRates(AbstractReference):
@@ -38,18 +39,6 @@ def test_the_rates_are_numpy_constants_and_the_attitude_an_array():
         np.testing.assert_array_equal(rate, np.zeros(3))
     assert isinstance(reference.q_d, jax.Array)  # a leaf: tunable, vmappable
     assert len(jax.tree.leaves(ConstantAttitude())) == 1
-
-
-def _count(closed_jaxpr, name: str) -> int:
-    def walk(jaxpr):
-        n = 0
-        for eqn in jaxpr.eqns:
-            n += eqn.primitive.name == name
-            for sub in jax.extend.core.jaxprs_in_params(eqn.params):
-                n += walk(sub)
-        return n
-
-    return walk(closed_jaxpr.jaxpr)
 
 
 @pytest.mark.parametrize("scenario", ["rigid_body_pd", "yu2022"])
@@ -81,7 +70,7 @@ def test_a_regulation_loop_gives_what_it_gave_with_traced_zero_rates(scenario):
     # The flight software alone (controller and observer, no recorded signal) computes fewer
     # products: the PD law's `rate_error_mrp`, Yu's feed-forward.
     in_flight = [
-        _count(jax.make_jaxpr(lp.hold)(0.0, lp.init(0.0, x0)), "dot_general")
+        count_primitive(jax.make_jaxpr(lp.hold)(0.0, lp.init(0.0, x0)), "dot_general")
         for lp in (loop, traced)
     ]
     assert in_flight[0] < in_flight[1]

@@ -3,7 +3,6 @@ signals and the solver's first stage, and the numbers stay those of the other pa
 
 import diffrax
 import jax
-import jax.extend.core as jex
 import jax.random as jr
 import numpy as np
 import pytest
@@ -13,6 +12,8 @@ from jaxatt.metrics import Chattering, Final
 from jaxatt.plants import QuaternionState
 from jaxatt.scenarios import chen2022_two_phase_power as chen
 from jaxatt.simulation import RK4, Euler, Performance
+
+from ..helpers import count_primitive, sub_jaxprs
 
 
 N, HORIZON, DT = 3, 0.2, 5e-3
@@ -26,31 +27,13 @@ def chen_loop():
     return loop, x0s
 
 
-def _sub_jaxprs(eqn):
-    for value in eqn.params.values():
-        for item in value if isinstance(value, tuple | list) else (value,):
-            if isinstance(item, jex.ClosedJaxpr):
-                yield item.jaxpr
-            elif isinstance(item, jex.Jaxpr):
-                yield item
-
-
-def _count(jaxpr, primitive: str) -> int:
-    """How many `primitive` equations `jaxpr` holds, nested calls and loops included."""
-    n = 0
-    for eqn in jaxpr.eqns:
-        n += eqn.primitive.name == primitive
-        n += sum(_count(sub, primitive) for sub in _sub_jaxprs(eqn))
-    return n
-
-
 def _interval_body(jaxpr):
     """The body of the outermost `scan`: one save interval (one step when every step saves),
     with whatever it evaluates around its steps."""
     for eqn in jaxpr.eqns:
         if eqn.primitive.name == "scan":
             return eqn.params["jaxpr"].jaxpr
-        for sub in _sub_jaxprs(eqn):
+        for sub in sub_jaxprs(eqn):
             body = _interval_body(sub)
             if body is not None:
                 return body
@@ -68,7 +51,9 @@ def test_the_streamed_step_evaluates_the_flight_software_once_per_stage(
     # more, which XLA did not merge: 17 exp/log pairs per compiled step against 14).
     loop, x0s = chen_loop
     y0 = loop.init(0.0, jax.tree.map(lambda a: a[0], x0s))
-    per_field = _count(jax.make_jaxpr(lambda y: loop.vector_field(0.0, y, None))(y0).jaxpr, "exp")
+    per_field = count_primitive(
+        jax.make_jaxpr(lambda y: loop.vector_field(0.0, y, None))(y0).jaxpr, "exp"
+    )
     assert per_field == 1
 
     def program(loop, x0s):
@@ -79,7 +64,7 @@ def test_the_streamed_step_evaluates_the_flight_software_once_per_stage(
 
     body = _interval_body(jax.make_jaxpr(program)(loop, x0s).jaxpr)
     components = 3 if scalarize else 1
-    assert _count(body, "exp") == stages * per_field * components
+    assert count_primitive(body, "exp") == stages * per_field * components
 
 
 @pytest.mark.parametrize(
@@ -122,7 +107,7 @@ def test_the_saved_step_evaluates_the_flight_software_once_per_stage(chen_loop, 
         return result.trajectories
 
     body = _interval_body(jax.make_jaxpr(program)(loop, x0s).jaxpr)
-    assert _count(body, "exp") == 4 * (3 if scalarize else 1)
+    assert count_primitive(body, "exp") == 4 * (3 if scalarize else 1)
 
 
 @pytest.mark.parametrize(
