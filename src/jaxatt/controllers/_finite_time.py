@@ -41,7 +41,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 from .._constants import is_known_zero
 from .._custom_types import MRP, Mat33, RealScalarLike, Scalar, Vec3
 from .._validation import check_gain_shape, check_in_open_interval, check_positive, check_spd
-from ..numerics import abs_pow, sig_pow
+from ..numerics import abs_pow, maximum, sig_pow
 from ..plants import MRPState
 from ..references import AttitudeReference
 from ..rotations import attitude_error_mrp, mrp_from_quat, mrp_kinematics_matrix, mrp_to_dcm
@@ -307,7 +307,7 @@ class RateConstrainedFiniteTimeMRP(AbstractController):
 
     def _gain(self, chi: Scalar, level: Scalar) -> Scalar:
         """[`barrier_gain`][] from $\\chi(v)$ and $M^{1+\\alpha_2}$."""
-        return level / jnp.maximum(jnp.abs(level - chi), self.guard * level)
+        return level / maximum(jnp.abs(level - chi), self.guard * level)
 
     def inside_barrier(
         self, measurement: MRPState, reference: AttitudeReference

@@ -10,7 +10,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 
 from .._custom_types import RealScalarLike
 from .._validation import check_gain_shape, check_nonnegative, check_positive
-from ..numerics import largest_eigenvalue3
+from ..numerics import amax, largest_eigenvalue3, maximum
 from ..performance import AbstractPerformance, envelope_margin, transform_error
 from ..plants import RelativePoseModel, RelativePoseState
 from ..reaching import AbstractReachingLaw
@@ -33,12 +33,12 @@ def _block_diagonal_norm(gain: Float[Array, "6 6"]) -> Float[Array, ""]:
     eigenvalue problem it replaces ran as a LAPACK call per sample and RK4 stage on XLA:CPU:
     a default Monte Carlo of 1000 samples ran 2.6-2.9x slower with it
     (benchmarks/README.md, "No LAPACK call in the step")."""
-    translational = jnp.max(jnp.abs(jnp.diagonal(gain)[:3]))
+    translational = amax(jnp.abs(jnp.diagonal(gain)[:3]))
     rotational = gain[3:, 3:]
     largest = largest_eigenvalue3(rotational @ rotational.T)
     positive = largest > 0
     rotational_norm = jnp.where(positive, jnp.sqrt(jnp.where(positive, largest, 1)), largest)
-    return jnp.maximum(translational, rotational_norm)
+    return maximum(translational, rotational_norm)
 
 
 class PoseSlidingMode(AbstractController):
@@ -239,6 +239,6 @@ class PoseSlidingMode(AbstractController):
             out |= {
                 "envelope": rho,
                 "envelope_margin": envelope_margin(pose, rho),
-                "envelope_usage": jnp.max(jnp.abs(pose) / rho),
+                "envelope_usage": amax(jnp.abs(pose) / rho),
             }
         return out

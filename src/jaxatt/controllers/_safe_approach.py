@@ -52,7 +52,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from .._validation import check_nonnegative, check_positive, check_spd
-from ..numerics import safe_norm, sig_pow, solve3, vectorized_log
+from ..numerics import clip, maximum, minimum, safe_norm, sig_pow, solve3, vectorized_log
 from ..plants import Proximity, ProximityState
 from ..references import PoseReference
 from ..rotations import mrp_from_quat, mrp_kinematics_matrix, skew
@@ -221,7 +221,7 @@ class SafeApproachSlidingMode(AbstractController):
         acts later there."""
         h, outer, inner = self.safety.value_and_factors(rho)
         x, r2 = rho[0], rho[1] ** 2 + rho[2] ** 2
-        slope = self.safety.corridor.slope(jnp.minimum(x, self.safety.a2))
+        slope = self.safety.corridor.slope(minimum(x, self.safety.a2))
         scale2 = (
             inner**2 * 4.0 * (rho @ rho) + outer**2 * (4.0 * r2 + slope**2) + (h / self.length) ** 2
         )
@@ -231,7 +231,7 @@ class SafeApproachSlidingMode(AbstractController):
         r"""$\frac{k_h}{2}\max(0, 1/\hat h - 1/\hat h_0)^2$ [m$^2$/s]: its gradient is
         $k_h(1/\hat h - 1/\hat h_0)\nabla(1/\hat h)$ inside the influence distance $\hat h_0$,
         zero outside (Khatib's repulsive potential on $1/\hat h$)."""
-        excess = jnp.maximum(1.0 / self.normalised_h(rho) - 1.0 / self.influence, 0.0)
+        excess = maximum(1.0 / self.normalised_h(rho) - 1.0 / self.influence, 0.0)
         return 0.5 * self.k_h * excess**2
 
     def barrier(self, rho) -> Float[Array, "3"]:
@@ -283,7 +283,7 @@ class SafeApproachSlidingMode(AbstractController):
             w = self.k1 * e1 + self.k2 * power
             # gamma |e1|^(gamma - 1) with |e1| floored (> 0): no C-library pow call per element
             # (not `abs_pow`, whose exponent must be >= 0; gamma - 1 is negative for gamma < 1)
-            floored = jnp.maximum(jnp.abs(e1), self.floor)
+            floored = maximum(jnp.abs(e1), self.floor)
             slope = self.gamma * jnp.exp((self.gamma - 1.0) * vectorized_log(floored))
             w_dot = self.k1 * e2 + self.k2 * slope * e2
         kappa, kappa_dot = w + barrier, w_dot + barrier_rate
@@ -313,7 +313,7 @@ class SafeApproachSlidingMode(AbstractController):
         eta = state.eta
         eta_dot = -self.k_eta * eta + delta
         if self.template_auxiliary:
-            gain = (jnp.abs(s @ delta) + 0.5 * delta @ delta) / jnp.maximum(eta @ eta, self.mu**2)
+            gain = (jnp.abs(s @ delta) + 0.5 * delta @ delta) / maximum(eta @ eta, self.mu**2)
             eta_dot = eta_dot - gain * eta
         d_dot = self.P1 * safe_norm(s) - self.P2 * state.d_hat
         return ChannelState(power, eta_dot, d_dot)
@@ -339,7 +339,7 @@ class SafeApproachSlidingMode(AbstractController):
             b if self.avoidance == "input" else zero,
         )
         f_cmd = model.body_force(y, v_f)
-        force = jnp.clip(f_cmd, -self.force_limit, self.force_limit)
+        force = clip(f_cmd, -self.force_limit, self.force_limit)
         delta_f = model.thrust_acceleration(y, force - f_cmd)
         # Attitude (MRP coordinates).
         sigma, g, g_dot, a1, a2, sdd = self._attitude_errors(y, r)
@@ -350,7 +350,7 @@ class SafeApproachSlidingMode(AbstractController):
         )
         g_inv = g.T / (0.25 * (1.0 + sigma @ sigma)) ** 2
         tau_cmd = skew(att.omega) @ (inertia @ att.omega) + inertia @ (g_inv @ v_t)
-        torque = jnp.clip(tau_cmd, -self.torque_limit, self.torque_limit)
+        torque = clip(tau_cmd, -self.torque_limit, self.torque_limit)
         delta_t = g @ solve3(inertia, torque - tau_cmd)
         rates = SafeApproachState(
             self._channel_rates(power_f, s_f, delta_f, state.translation),

@@ -6,6 +6,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import BoolScalar, RealScalarLike, Scalar
 from .._validation import check_positive
+from ..numerics import amax, amin
 from ._signals import as_signal
 
 
@@ -24,13 +25,13 @@ def _bound(where: str, bound: ArrayLike, x: Array) -> Array:
 
 @jax.jit
 def _constraint_margin(x: Array, bound: Array) -> Array:
-    return jnp.min(bound - jnp.max(jnp.abs(x), axis=0))
+    return amin(bound - amax(jnp.abs(x), axis=0))
 
 
 @jax.jit
 def _constraint_violated(x: Array, bound: Array) -> Array:
     # `max` propagates NaN, and `~(nan < b)` is True.
-    return jnp.any(~(jnp.max(jnp.abs(x), axis=0) < bound))
+    return jnp.any(~(amax(jnp.abs(x), axis=0) < bound))
 
 
 def max_abs(x: Float[ArrayLike, "T n"]) -> Float[Array, " n"]:
@@ -44,7 +45,7 @@ def max_abs(x: Float[ArrayLike, "T n"]) -> Float[Array, " n"]:
     **Gradients:** through the extreme sample of each component (as `max`).
     """
     x = as_signal("max_abs", "x", x, 2, _HINT)
-    return jnp.max(jnp.abs(x), axis=0)
+    return amax(jnp.abs(x), axis=0)
 
 
 def constraint_margin(

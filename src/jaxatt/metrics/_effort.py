@@ -5,6 +5,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float, Real
 
 from .._custom_types import Scalar
+from ..numerics import amax
 from ._signals import as_signal, as_times, trapezoid
 
 
@@ -40,10 +41,11 @@ def peak(u: Float[ArrayLike, "T m"]) -> Scalar:
 
     **Returns:** a scalar in the unit of `u`.
 
-    **Gradients:** through the extreme entry only (as `max`); at a tie JAX splits it.
+    **Gradients:** through the extreme entry only (the first, at a tie:
+    [`jaxatt.numerics.amax`][]).
     """
     u = as_signal("peak", "u", u, 2, _HINT)
-    return jnp.max(jnp.abs(u))
+    return amax(jnp.abs(u))
 
 
 def peak_per_axis(u: Float[ArrayLike, "T m"]) -> Float[Array, " m"]:
@@ -57,4 +59,4 @@ def peak_per_axis(u: Float[ArrayLike, "T m"]) -> Float[Array, " m"]:
     **Gradients:** as [`peak`][].
     """
     u = as_signal("peak_per_axis", "u", u, 2, _HINT)
-    return jnp.max(jnp.abs(u), axis=0)
+    return amax(jnp.abs(u), axis=0)

@@ -38,7 +38,7 @@ from jaxtyping import Array, Float, PyTree
 
 from .._custom_types import RealScalarLike
 from .._validation import check_positive
-from ..numerics import safe_norm
+from ..numerics import amax, maximum, safe_norm
 from ._chattering import chattering
 from ._effort import control_effort
 from ._settling import convergence_time, settling_time, time_outside
@@ -86,7 +86,7 @@ class MaxAbs(AbstractNorm):
     def __call__(self, x):
         x = jnp.asarray(x)
         axes = _axes(self.axes, x.ndim)
-        return jnp.max(jnp.abs(x), axis=axes) if axes else jnp.abs(x)
+        return amax(jnp.abs(x), axis=axes) if axes else jnp.abs(x)
 
 
 class Absolute(AbstractNorm):
@@ -350,7 +350,7 @@ class ConvergenceTime(AbstractMetric):
         safe_last = jnp.where(positive, last, 1.0)
         safe_first = jnp.where(positive, x_k, 1.0)
         rate = (jnp.log(safe_first) - jnp.log(safe_last)) / span
-        rate = jnp.maximum(rate, 1 / (t_end - t0))
+        rate = maximum(rate, 1 / (t_end - t0))
         safe_unsettled = unsettled & positive
         remaining = jnp.where(
             safe_unsettled, jnp.log(jnp.where(safe_unsettled, safe_last, tol) / tol) / rate, 0.0
@@ -373,13 +373,13 @@ class Peak(AbstractMetric):
     streams: ClassVar[bool] = True
 
     def __call__(self, traj) -> Array:
-        return jnp.max(self.norm(_signal(traj, self.signal)), axis=0)
+        return amax(self.norm(_signal(traj, self.signal)), axis=0)
 
     def stream_init(self, t, signals, t_last):
         return _magnitude(self.norm, signals, self.signal)
 
     def stream_update(self, state, t, signals):
-        return jnp.maximum(state, _magnitude(self.norm, signals, self.signal))  # NaN stays
+        return maximum(state, _magnitude(self.norm, signals, self.signal))  # NaN stays
 
     def stream_value(self, state):
         return state

@@ -4,6 +4,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
+from ..numerics import amax, maximum
 from ._signals import as_signal
 
 
@@ -11,7 +12,7 @@ from ._signals import as_signal
 def _overshoot(x: Array) -> Array:
     x0 = x[0]
     direction = jnp.sign(x0)
-    excursion = jnp.maximum(jnp.max(-direction[None, :] * x, axis=0), 0.0)
+    excursion = maximum(amax(-direction[None, :] * x, axis=0), 0.0)
     zero = x0 == 0  # (not `!= 0`: a NaN start gives a NaN overshoot)
     scale = jnp.where(zero, 1.0, jnp.abs(x0))
     return jnp.where(zero, 0.0, excursion / scale)

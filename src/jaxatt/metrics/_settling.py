@@ -12,6 +12,7 @@ from jaxtyping import Array, ArrayLike, Float, Real
 
 from .._custom_types import BoolScalar, RealScalarLike, Scalar
 from .._validation import check_positive
+from ..numerics import maximum
 from ._signals import as_signal, as_times, trapezoid
 
 
@@ -274,7 +275,7 @@ def _convergence_time(ts: Array, x: Array, tol: Array, window: Array) -> Array:
     safe_first = jnp.where(positive, x[k], 1.0)
     rate = (jnp.log(safe_first) - jnp.log(safe_last)) / span
     horizon = t_end - ts[0]
-    rate = jnp.maximum(rate, 1 / horizon)
+    rate = maximum(rate, 1 / horizon)
     safe_unsettled = unsettled & positive
     remaining = jnp.where(
         safe_unsettled, jnp.log(jnp.where(safe_unsettled, safe_last, tol) / tol) / rate, 0.0

@@ -1,13 +1,22 @@
 """Numerical primitives with stated derivatives at their singular points.
 
-Every power, norm, sign and inverse cosine used by jaxatt goes through these helpers, so that
-gradients through a closed loop are finite wherever the mathematics allows (STYLE rule 7).
+Every power, norm, sign, extremum and inverse cosine used by jaxatt's metrics, objectives and
+switching functions goes through these helpers, so that gradients through a closed loop are
+finite wherever the mathematics allows (STYLE rule 7), and never depend on two copies of a value
+rounding alike (`amax`, `maximum`, `clip`: derivatives that follow the chosen element).
 """
 
 from ._atan import (
     vectorized_arccos as vectorized_arccos,
     vectorized_arctan as vectorized_arctan,
     vectorized_arctan2 as vectorized_arctan2,
+)
+from ._extrema import (
+    amax as amax,
+    amin as amin,
+    clip as clip,
+    maximum as maximum,
+    minimum as minimum,
 )
 from ._fractional import (
     FractionalMemory as FractionalMemory,

@@ -4,6 +4,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
+from ._extrema import maximum
 from ._log import vectorized_log
 
 
@@ -63,7 +64,7 @@ def _sig_pow_jvp(primals, tangents):
     ax = jnp.abs(x)
     value = jnp.sign(x) * _abs_pow_primal(ax, a)
     # d/dx: a |x|^(a-1); below sqrt(eps) the base is floored when a < 1 (finite slope cap).
-    floored = jnp.where(a < 1, jnp.maximum(ax, _slope_floor(ax.dtype)), ax)
+    floored = jnp.where(a < 1, maximum(ax, _slope_floor(ax.dtype)), ax)
     dx = a * _abs_pow_primal(floored, a - 1)
     da = value * _log_abs(ax)
     tangent = dx * jnp.asarray(x_dot) + da * jnp.asarray(a_dot)

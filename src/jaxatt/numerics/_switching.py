@@ -3,6 +3,8 @@
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
+from ._extrema import clip
+
 
 def sign(x: Float[ArrayLike, "*#shape"]) -> Float[Array, "..."]:
     """`sign(x)` with `sign(0) = 0` (SPEC's convention).
@@ -20,7 +22,7 @@ def sat(x: Float[ArrayLike, "*#shape"], width: Float[ArrayLike, "*#shape"]) -> F
     inside the layer, 0 outside (at the corners JAX takes one side). `width` must be positive.
     """
     x = jnp.asarray(x)
-    return jnp.clip(x / width, -1, 1)
+    return clip(x / width, -1, 1)
 
 
 def smooth_sign(

@@ -5,6 +5,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from ._atan import vectorized_arccos
+from ._extrema import clip, maximum
 
 
 @jax.custom_jvp
@@ -17,7 +18,7 @@ def safe_arccos(x: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
     finite at $x = \pm 1$ where the exact derivative is infinite.
     """
     x = jnp.asarray(x)
-    return vectorized_arccos(jnp.clip(x, -1, 1))
+    return vectorized_arccos(clip(x, -1, 1))
 
 
 @safe_arccos.defjvp
@@ -25,5 +26,5 @@ def _safe_arccos_jvp(primals, tangents):
     (x,), (x_dot,) = primals, tangents
     x = jnp.asarray(x)
     eps = jnp.finfo(x.dtype).eps
-    slope = -1 / jnp.sqrt(jnp.maximum(1 - x * x, eps))
+    slope = -1 / jnp.sqrt(maximum(1 - x * x, eps))
     return safe_arccos(x), slope * x_dot

@@ -8,7 +8,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
 from .._validation import is_traced
-from ..numerics import vectorized_sin, vectorized_sincos
+from ..numerics import clip, vectorized_sin, vectorized_sincos
 from ._constants import MU_EARTH
 
 
@@ -108,7 +108,7 @@ def state_to_elements(
     e = jnp.linalg.norm(e_vec)
     energy = 0.5 * jnp.dot(v, v) - mu / r_norm
     a = -mu / (2.0 * energy)
-    i = jnp.arccos(jnp.clip(h[2] / h_norm, -1.0, 1.0))
+    i = jnp.arccos(clip(h[2] / h_norm, -1.0, 1.0))
     equatorial = node_norm < tiny * h_norm
     circular = e < tiny
     # Reference direction in the orbit plane: the node line, or x for an equatorial orbit.

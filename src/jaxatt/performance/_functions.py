@@ -7,6 +7,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
 from .._validation import check_in_open_interval, check_positive, is_traced
+from ..numerics import maximum
 from ._base import AbstractPerformance
 
 
@@ -173,7 +174,7 @@ class FiniteTimePerformance(AbstractPerformance):
 
     def _remaining(self, t) -> tuple[Array, Array]:
         """$1 - t/T$ clipped at 0, and a copy that is 1 where it is 0 (a safe power base)."""
-        x = jnp.maximum(1.0 - t / self.horizon, 0.0)
+        x = maximum(1.0 - t / self.horizon, 0.0)
         return x, jnp.where(x > 0, x, 1.0)
 
     def value(self, t: RealScalarLike) -> Float[Array, "*k"]:

@@ -7,7 +7,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from ..metrics import AbstractMetric
-from ..numerics import vectorized_atanh
+from ..numerics import amin, clip, vectorized_atanh
 
 
 class TransformedError(NamedTuple):
@@ -51,7 +51,7 @@ def transform_error(
     e = jnp.asarray(error)
     rho = jnp.asarray(rho)
     z = e / rho
-    zc = jnp.clip(z, -Z_LIMIT, Z_LIMIT)
+    zc = clip(z, -Z_LIMIT, Z_LIMIT)
     kappa = vectorized_atanh(zc)  # jnp.arctanh is a C-library log call per element on CPU
     beta = 1.0 / (rho * (1.0 - zc**2))
     kappa_dot = beta * (jnp.asarray(error_rate) - e * jnp.asarray(rho_dot) / rho)
@@ -77,4 +77,4 @@ class MinimumMargin(AbstractMetric):
     signal: str = eqx.field(default="envelope_margin", static=True)
 
     def __call__(self, traj) -> Array:
-        return jnp.min(traj.signals[self.signal])
+        return amin(traj.signals[self.signal])

@@ -12,6 +12,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from .._validation import check_batched_shape, check_tree_finite
+from ..numerics import amax, amin
 from ._base import AbstractPlant
 
 
@@ -58,7 +59,7 @@ class SingleIntegratorAgents(AbstractPlant):
             "x": x,
             "mean": mean[0, 0],
             "disagreement": x - mean,
-            "spread": jnp.max(x, axis=(0, 1)) - jnp.min(x, axis=(0, 1)),
+            "spread": amax(x, axis=(0, 1)) - amin(x, axis=(0, 1)),
         }
 
     def check_state(self, state, name: str = "x0", batch_shape: tuple[int, ...] = ()):

@@ -17,7 +17,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
-from ..numerics import vectorized_sincos
+from ..numerics import clip, vectorized_sincos
 from ._quaternion import quat_from_axis_angle, quat_multiply
 
 
@@ -53,7 +53,7 @@ def euler321_from_dcm(c: Float[ArrayLike, "3 3"]) -> Float[Array, "3"]:
     """
     c = jnp.asarray(c)
     phi = jnp.arctan2(c[1, 2], c[2, 2])
-    theta = -jnp.arcsin(jnp.clip(c[0, 2], -1.0, 1.0))
+    theta = -jnp.arcsin(clip(c[0, 2], -1.0, 1.0))
     psi = jnp.arctan2(c[0, 1], c[0, 0])
     return jnp.stack([phi, theta, psi])
 

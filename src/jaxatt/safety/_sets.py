@@ -31,6 +31,8 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
+from ..numerics import clip, maximum, minimum
+
 
 def _positive(where: str, name: str, value) -> float:
     value = float(value)
@@ -207,8 +209,8 @@ class CollisionAvoidance(eqx.Module):
         p = jnp.asarray(position)
         x, r2 = p[0], p[1] ** 2 + p[2] ** 2
         a1, a2 = self.a1, self.a2
-        outer = jnp.where(x <= a1, self.sphere.factor(x, r2), r2 + self.blend(jnp.clip(x, a1, a2)))
-        inner = r2 - self.corridor.profile(jnp.minimum(x, a2))
+        outer = jnp.where(x <= a1, self.sphere.factor(x, r2), r2 + self.blend(clip(x, a1, a2)))
+        inner = r2 - self.corridor.profile(minimum(x, a2))
         beyond = r2 - float(self.corridor.profile(a2)) - float(self.corridor.slope(a2)) * (x - a2)
         return jnp.where(x <= a2, outer, beyond), jnp.where(x <= a2, inner, beyond)
 
@@ -222,7 +224,7 @@ class CollisionAvoidance(eqx.Module):
         r"""$(h, O, C)$ at one position, the factors evaluated once (for callers that need
         both, such as a normaliser of $h$)."""
         outer, inner = self.factors(position)
-        past = jnp.maximum(jnp.asarray(position)[0] - self.a2, 0.0)
+        past = maximum(jnp.asarray(position)[0] - self.a2, 0.0)
         return outer * inner + self.beta * past**2, outer, inner
 
     def gradient(self, position: Float[ArrayLike, "3"]) -> Float[Array, "3"]:

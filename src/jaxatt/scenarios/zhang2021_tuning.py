@@ -101,8 +101,14 @@ def parameters(problem: str = "ppc") -> dict[str, tuning.Parameter]:
     raise ValueError(f"zhang2021 tuning: `problem` must be one of {PROBLEMS}, got {problem!r}.")
 
 
-def objective(horizon: float = HORIZON, dt: float = DT, save_every: int = SAVE_EVERY):
-    """The [`jaxatt.tune.MetricObjective`][] of the module docstring."""
+def objective(
+    horizon: float = HORIZON,
+    dt: float = DT,
+    save_every: int = SAVE_EVERY,
+    checkpoint: bool | str = True,
+):
+    """The [`jaxatt.tune.MetricObjective`][] of the module docstring (`checkpoint`: how reverse
+    mode stores the loop, as [`jaxatt.simulation.Simulation`][])."""
     times = {
         f"time_{group}": ConvergenceTime(signal, tol, MaxAbs())
         for group, signal, tol in zip(hover.GROUPS, hover.SIGNALS, hover.TOLERANCES)
@@ -122,7 +128,9 @@ def objective(horizon: float = HORIZON, dt: float = DT, save_every: int = SAVE_E
         tuning.Penalty("peak_torque", TORQUE_BOUND, PENALTY_WEIGHT, worst),
         tuning.Penalty("envelope_usage", USAGE_BOUND, PENALTY_WEIGHT, worst),
     )
-    return tuning.MetricObjective(horizon, dt, times, limits, penalties, save_every=save_every)
+    return tuning.MetricObjective(
+        horizon, dt, times, limits, penalties, save_every=save_every, checkpoint=checkpoint
+    )
 
 
 def initial_states(key: jax.Array, n: int, problem: str = "ppc") -> RelativePoseState:

@@ -28,6 +28,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
+from ..numerics import clip, minimum
 from ._base import AbstractShaper, check_mode, damped_period
 
 
@@ -100,15 +101,15 @@ class ZeroVibrationSmoother(AbstractShaper):
         """$u(t)$ [1/s] of (41)."""
         t = jnp.asarray(t)
         period = self.period
-        triangle = jnp.clip(jnp.minimum(t, 2 * period - t), 0.0, None)
+        triangle = clip(minimum(t, 2 * period - t), 0.0, None)
         return self.amplitude * triangle * jnp.exp(-self.decay * t)
 
     def step_response(self, t: RealScalarLike | Float[ArrayLike, "..."]) -> Float[Array, "..."]:
         t = jnp.asarray(t)
         period, a, u0 = self.period, self.decay, self.amplitude
-        rising = jnp.clip(t, 0.0, period)
+        rising = clip(t, 0.0, period)
         first = u0 * rising**2 * _h(a * rising)
-        r = jnp.clip(2 * period - t, 0.0, period)
+        r = clip(2 * period - t, 0.0, period)
         second = 1 - u0 * jnp.exp(-2 * a * period) * r**2 * _h(-a * r)
         return jnp.where(t <= period, first, second)
 

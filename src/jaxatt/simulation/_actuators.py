@@ -8,7 +8,7 @@ from jaxtyping import Array, ArrayLike, Float, PyTree
 
 from .._custom_types import RealScalarLike
 from .._validation import check_positive
-from ..numerics import safe_norm
+from ..numerics import clip, safe_norm
 
 
 class AbstractActuator(eqx.Module):
@@ -71,7 +71,7 @@ class Saturation(AbstractActuator):
 
     def __call__(self, t, command, state):
         del t, state
-        return jnp.clip(command, -self.limit, self.limit), None
+        return clip(command, -self.limit, self.limit), None
 
 
 class NormSaturation(AbstractActuator):

@@ -20,6 +20,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike, Scalar
 from .._validation import check_positive
+from ..numerics import clip
 from ._vector import PDSurface, TerminalSurface
 
 
@@ -57,7 +58,7 @@ class PolynomialDecay(AbstractDecay):
         self.horizon = check_positive("PolynomialDecay", "horizon", horizon)
 
     def __call__(self, tau: Float[ArrayLike, ""]) -> tuple[Scalar, Scalar]:
-        remaining = jnp.clip(1 - jnp.asarray(tau) / self.horizon, 0.0, 1.0)
+        remaining = clip(1 - jnp.asarray(tau) / self.horizon, 0.0, 1.0)
         return remaining**3, -3 * remaining**2 / self.horizon
 
 

@@ -13,6 +13,7 @@ from .._validation import check_gain_shape, check_in_open_interval, check_positi
 from ..numerics import (
     FractionalMemory,
     abs_pow,
+    maximum,
     memory_derivative,
     memory_init,
     memory_push,
@@ -75,7 +76,7 @@ class TerminalSurface(eqx.Module):
 
     def gain(self, e: Float[Array, "3"]) -> Float[Array, "3"]:
         r"""$k_1 + k_2 r\max(|e|, \epsilon_e)^{r-1}$, the guarded $\partial h/\partial e$."""
-        guarded = jnp.maximum(jnp.abs(e), self.floor)
+        guarded = maximum(jnp.abs(e), self.floor)
         return self.k1 + self.k2 * self.exponent * abs_pow(guarded, self.exponent - 1)
 
     def error_term_rate(self, e: Float[Array, "3"], e_dot: Float[Array, "3"]) -> Float[Array, "3"]:

@@ -44,6 +44,7 @@ from ..metrics import (
     SettlingTime,
 )
 from ..montecarlo import run_batch, streamable
+from ..numerics import amax
 from ..simulation import (
     RK4,
     AbstractClosedLoop,
@@ -101,7 +102,7 @@ class WorstCase(AbstractAggregate):
     """The batch maximum."""
 
     def __call__(self, values):
-        return jnp.max(values)
+        return amax(values)
 
 
 SAMPLE_METRICS = (
