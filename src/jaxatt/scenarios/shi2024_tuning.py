@@ -36,6 +36,7 @@ from jaxtyping import Array, Float, PyTree
 
 from .. import tune as tuning
 from ..metrics import convergence_time
+from ..numerics import amax
 from ..rotations import attitude_error_quat
 from ..simulation import AbstractClosedLoop, ClosedLoop, Simulation, integrate
 from . import shi2024
@@ -65,7 +66,7 @@ def objectives(
     traj = integrate(loop, x0, sim)
     target = jnp.asarray(shi2024.Q_TARGET)
     error = jax.vmap(lambda q: attitude_error_quat(q, target)[1:])(traj.plant_states.q)
-    att = jnp.max(jnp.abs(error), axis=1)
+    att = amax(jnp.abs(error), axis=1)
     late = traj.ts >= traj.ts[-1] - window
     energy = jnp.sum(jnp.where(late, traj.signals["modal_energy"], 0.0)) / jnp.sum(late)
     return convergence_time(traj.ts, att, tolerance), energy

@@ -45,6 +45,7 @@ import numpy as np
 
 from ..controllers import AdaptiveTerminalSixDof
 from ..metrics import settling_time
+from ..numerics import amax
 from ..plants import SixDof, SixDofState
 from ..references import ConstantPose
 from ..rotations import quat_normalize
@@ -203,8 +204,8 @@ def tuning_objective(
     norm = jnp.interp(position_time, ts, traj.signals["position_norm"])
     angle = jnp.degrees(jnp.interp(attitude_time, ts, traj.signals["attitude_error_angle"]))
     u = traj.signals["u"]
-    peak_force = jnp.max(jnp.abs(u[:, :3]))
-    peak_torque = jnp.max(jnp.abs(u[:, 3:]))
+    peak_force = amax(jnp.abs(u[:, :3]))
+    peak_torque = amax(jnp.abs(u[:, 3:]))
     sp = jax.nn.softplus
     loss = (
         0.1 * sp(10 * jnp.log(norm / 0.05))
