@@ -56,7 +56,7 @@ from jaxatt.scenarios import (
 from jaxatt.simulation import ClosedLoop, Euler, FirstOrderLag, Saturation
 
 from . import standins
-from .helpers import J0, compile_count
+from .helpers import J0, compile_count, sub_jaxprs
 
 
 T1, DT = 0.1, 0.01  # ten Euler steps: enough to exercise every term, cheap to compile
@@ -464,6 +464,7 @@ def _sincos_text() -> str:
 
 
 @functools.cache
+@functools.cache
 def _vector_field_jaxpr(name: str):
     """`(field, y0, jaxpr)` of one evaluation of the registry loop `name`'s vector field at
     its first start, traced once for the tests that read it."""
@@ -491,6 +492,44 @@ def test_no_library_closed_loop_evaluates_a_power_twice_on_the_same_inputs():
         if count:
             repeated[name] = count
     assert repeated == {}
+
+
+_EXTREMA = ("max", "min", "reduce_max", "reduce_min", "clamp", "cummax", "cummin")
+
+
+def _float_extrema(jaxpr, found: set[str]) -> set[str]:
+    for eqn in jaxpr.eqns:
+        if eqn.primitive.name in _EXTREMA and jnp.issubdtype(
+            eqn.outvars[0].aval.dtype, jnp.floating
+        ):
+            found.add(eqn.primitive.name)
+        for sub in sub_jaxprs(eqn):
+            _float_extrema(sub, found)
+    return found
+
+
+def test_no_library_closed_loop_takes_an_extremum_whose_derivative_tests_equality():
+    """JAX's derivatives of `max`, `min`, `reduce_max`, `reduce_min` and `clamp` (`jnp.max`,
+    `jnp.maximum`, `jnp.clip`) find the chosen operand by bitwise equality with the result, and
+    give NaN or a silent zero when XLA computes the operand twice and the copies round
+    differently (Zhang 2021's tuning gradient was NaN; tests/numerics/test_extrema.py). The
+    library's closed loops take their extrema from `jaxatt.numerics` (`amax`, `maximum`,
+    `clip`: selects), so no float extremum primitive is left in any vector field. Traced
+    only, nothing compiled."""
+    found = {}
+    for name in CASES:
+        if name.startswith("stand-in"):
+            continue
+        _, _, jaxpr = _vector_field_jaxpr(name)
+        extrema = _float_extrema(jaxpr, set())
+        if extrema:
+            found[name] = sorted(extrema)
+    assert found == {}
+    # The check can fail: `jnp.clip` and `jnp.max` are seen, an integer `max` is not.
+    seen = jax.make_jaxpr(lambda x, k: (jnp.clip(x, -1, 1), jnp.max(x), jnp.maximum(k, 2)))
+    assert _float_extrema(seen(jnp.ones(3), 1).jaxpr, set()) >= {"reduce_max"}
+    assert _float_extrema(seen(jnp.ones(3), 1).jaxpr, set()) & {"max", "min", "clamp"}
+    assert not _float_extrema(jax.make_jaxpr(lambda k: jnp.maximum(k, 2))(1).jaxpr, set())
 
 
 def test_no_library_closed_loop_calls_lapack_in_its_step():

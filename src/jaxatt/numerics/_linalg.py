@@ -17,6 +17,7 @@ from jax import lax
 from jaxtyping import Array, ArrayLike, Float
 
 from ._atan import vectorized_arccos
+from ._extrema import amax
 from ._norm import safe_norm, safe_normalize
 from ._sincos import vectorized_sincos
 
@@ -110,7 +111,7 @@ def _scaled(f, m: Float[ArrayLike, "3 3"]):
     the scale held constant the gradient is exact."""
     m = jnp.asarray(m)
     m = 0.5 * (m + m.T)
-    scale = lax.stop_gradient(jnp.max(jnp.abs(m)))
+    scale = lax.stop_gradient(amax(jnp.abs(m)))
     scale = jnp.where(scale > 0, scale, 1)
     return scale * f(m / scale)
 
