@@ -464,7 +464,6 @@ def _sincos_text() -> str:
 
 
 @functools.cache
-@functools.cache
 def _vector_field_jaxpr(name: str):
     """`(field, y0, jaxpr)` of one evaluation of the registry loop `name`'s vector field at
     its first start, traced once for the tests that read it."""
@@ -526,9 +525,9 @@ def test_no_library_closed_loop_takes_an_extremum_whose_derivative_tests_equalit
             found[name] = sorted(extrema)
     assert found == {}
     # The check can fail: `jnp.clip` and `jnp.max` are seen, an integer `max` is not.
-    seen = jax.make_jaxpr(lambda x, k: (jnp.clip(x, -1, 1), jnp.max(x), jnp.maximum(k, 2)))
-    assert _float_extrema(seen(jnp.ones(3), 1).jaxpr, set()) >= {"reduce_max"}
-    assert _float_extrema(seen(jnp.ones(3), 1).jaxpr, set()) & {"max", "min", "clamp"}
+    seen = jax.make_jaxpr(lambda x: (jnp.clip(x, -1, 1), jnp.max(x)))(jnp.ones(3))
+    floats = _float_extrema(seen.jaxpr, set())
+    assert "reduce_max" in floats and floats & {"max", "min", "clamp"}
     assert not _float_extrema(jax.make_jaxpr(lambda k: jnp.maximum(k, 2))(1).jaxpr, set())
 
 

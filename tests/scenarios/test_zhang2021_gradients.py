@@ -10,11 +10,12 @@ h = 1e-4 in the log-parameters has truncation error O(h^2) ~ 1e-8 relative and r
 saved interval changes within +-h.
 
 Reverse mode stores the loop's residuals (`checkpoint=False`) instead of recomputing each save
-interval (the tuner's default, checked against finite differences in tests/tune): with the
-residuals, XLA computes the peak metrics' operands twice, and before
-`jaxatt.numerics.amax` the derivative of `jnp.max`, which looks for the result among the
-operands by bitwise equality, found none in one copy and gave NaN in all ten entries under the
-suite's compiler settings (tests/numerics/test_extrema.py).
+interval (the tuner's default, checked against finite differences in tests/tune). Before
+`jaxatt.numerics.amax`, this configuration gave NaN in all ten entries under the suite's
+compiler settings: `checkify` placed it in the derivative of `MaxAbs`'s `jnp.max`, which looks
+for the result among the operands by bitwise equality and divides by the number found (zero:
+the operand's copies in the compiled gradient had rounded differently; tests/numerics/
+test_extrema.py).
 """
 
 import jax
