@@ -3,7 +3,8 @@
 A new component joins by adding a case to `CASES`: a closed loop, a batch of three initial
 states, and the path of one array parameter. Each case must satisfy, on a short Euler run:
 
-- `vmap` equals a loop: `monte_carlo` over the batch equals `simulate` sample by sample;
+- `vmap` equals a loop: `monte_carlo` over the batch equals `simulate` sample by sample (with
+  the plant's default metrics, which every library plant declares on its own signals);
 - jit compiles once per structure: changing the parameter's value compiles nothing new;
 - gradients are finite: of a scalar loss of the final state and the controls, with respect to
   every array of the closed loop (the library's safe primitives at singular points);
@@ -329,17 +330,15 @@ def test_generic_contract(name):
     loop, x0s = make_loop(), make_x0s()
     common = dict(dt=DT, solver=Euler())
 
-    # vmap = loop (monte_carlo's batch runner against simulate, sample by sample).
-    batch = mc.monte_carlo(
-        loop,
-        x0s,
-        0.0,
-        T1,
-        metrics={"peak": jaxatt.metrics.Peak("u")},
-        keep_trajectories=True,
-        **common,
-    )
+    # vmap = loop (monte_carlo's batch runner against simulate, sample by sample), with the
+    # plant's default metrics (the stand-ins may declare none).
+    defaults = loop.default_metrics(1e-2)
+    metrics = None if defaults else {"peak": jaxatt.metrics.Peak("u")}
+    batch = mc.monte_carlo(loop, x0s, 0.0, T1, metrics=metrics, keep_trajectories=True, **common)
     assert bool(np.all(batch.successful)), batch.status
+    assert set(batch.metrics) == set(defaults or metrics)
+    for metric, values in batch.metrics.items():  # a successful sample has no NaN metric
+        assert not np.any(np.isnan(values)), (name, metric)
     singles = [jaxatt.simulate(loop, _index(x0s, k), 0.0, T1, **common) for k in range(3)]
     for k, single in enumerate(singles):
         for a, b in zip(
@@ -409,6 +408,23 @@ def test_the_registry_covers_every_public_plant_controller_observer_and_actuator
     assert {MRPState, QuaternionState} <= {
         make_x0s().__class__ for _, make_x0s, _ in CASES.values()
     }
+
+
+def test_every_library_plant_has_default_metrics_on_its_own_signals():
+    """`monte_carlo(loop, x0s, t0, t1, dt=dt)` records the plant's `default_metrics` (the
+    README's first call): every library plant declares some, and each reads a signal its closed
+    loop has. Traced only (`jax.eval_shape` of the signals), nothing compiled."""
+    missing = {}
+    for name, (make_loop, make_x0s, _) in CASES.items():
+        if name.startswith("stand-in"):
+            continue
+        loop = make_loop()
+        y0 = loop.init(0.0, _index(make_x0s(), 0))
+        signals = set(jax.eval_shape(lambda y, loop=loop: loop.signals(0.0, y, None), y0))
+        read = {metric.signal for metric in loop.default_metrics(1e-2).values()}
+        if not read or not read <= signals:
+            missing[name] = sorted(read - signals) or "no default metrics"
+    assert missing == {}
 
 
 def _plain(param) -> bool:

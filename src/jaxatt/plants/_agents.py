@@ -12,6 +12,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from .._validation import check_batched_shape, check_tree_finite
+from ..metrics import AbstractMetric, Effort, Peak, SettlingTime
 from ..numerics import amax, amin
 from ._base import AbstractPlant
 
@@ -60,6 +61,17 @@ class SingleIntegratorAgents(AbstractPlant):
             "mean": mean[0, 0],
             "disagreement": x - mean,
             "spread": amax(x, axis=(0, 1)) - amin(x, axis=(0, 1)),
+        }
+
+    def default_metrics(self, tolerance: float) -> dict[str, AbstractMetric]:
+        """`settling_time` of the spread (its Euclidean norm over the features) to `tolerance`,
+        in the state's unit: the time after which all agents stay within `tolerance` of each
+        other; `peak_control` $\\max_{t,i}|u_i|$ over all agents; `effort`
+        $\\int\\|u\\|^2 dt$ summed over all agents."""
+        return {
+            "settling_time": SettlingTime("spread", tolerance),
+            "peak_control": Peak("u"),
+            "effort": Effort("u"),
         }
 
     def check_state(self, state, name: str = "x0", batch_shape: tuple[int, ...] = ()):

@@ -21,6 +21,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._validation import check_finite, check_positive
+from ..metrics import AbstractMetric
 from ..numerics import safe_arccos, safe_norm
 from ..orbits._relative_motion import hill_rotation
 from ..references import AbstractReference, PoseReference
@@ -28,7 +29,7 @@ from ..rotations import attitude_error_quat, quat_angle, quat_kinematics, quat_t
 from ..signals import AbstractSignal
 from ._base import AbstractPlant
 from ._relative_orbit import AbstractRelativeOrbit, RelativeOrbitState
-from ._rigid_body import QuaternionState, RigidBody
+from ._rigid_body import QuaternionState, RigidBody, _pose_metrics
 
 
 class ProximityState(eqx.Module):
@@ -140,3 +141,11 @@ class Proximity(AbstractPlant):
         from ..references import ConstantPose
 
         return ConstantPose()
+
+    def default_metrics(self, tolerance: float) -> dict[str, AbstractMetric]:
+        """`settle_time_position` of $\\|\\rho - \\rho_d\\|$ to `tolerance` [m],
+        `settle_time_attitude` of the attitude-error angle to `tolerance` [rad] (the same number
+        in each group's unit, as [`CoupledAttitudeOrbit`][jaxatt.plants.CoupledAttitudeOrbit] does),
+        `peak_control` $\\max_{t,i}|u_i|$ over the force [N] and torque [N m] entries, `effort`
+        $\\int\\|u\\|^2 dt$."""
+        return _pose_metrics(tolerance)

@@ -169,6 +169,18 @@ def _attitude_metrics(tolerance: float) -> dict[str, AbstractMetric]:
     }
 
 
+def _pose_metrics(tolerance: float) -> dict[str, AbstractMetric]:
+    """The default metrics of the plants that fly a rigid body's attitude and a translation
+    (`Proximity`, `SixDof`): settling of the position error's norm and of the attitude-error
+    angle, each to `tolerance` in its own unit, and the peak and effort of the whole control."""
+    return {
+        "settle_time_position": SettlingTime("position_error", tolerance),
+        "settle_time_attitude": SettlingTime("attitude_error_angle", tolerance),
+        "peak_control": Peak("u"),
+        "effort": Effort("u"),
+    }
+
+
 def _attitude_reference(where: str, reference) -> AttitudeReference:
     if not isinstance(reference, AttitudeReference):
         raise ValueError(

@@ -36,6 +36,7 @@ from .._validation import (
     describe,
     is_traced,
 )
+from ..metrics import AbstractMetric
 from ..references import AbstractReference, ConstantPose, PoseReference
 from ..rotations import (
     attitude_error_quat,
@@ -47,7 +48,7 @@ from ..rotations import (
 )
 from ..signals import AbstractSignal, Constant, check_signal_shape
 from ._base import AbstractPlant
-from ._rigid_body import RigidBody
+from ._rigid_body import RigidBody, _pose_metrics
 
 
 class SixDofState(eqx.Module):
@@ -199,3 +200,8 @@ class SixDof(AbstractPlant):
 
     def default_reference(self) -> AbstractReference:
         return ConstantPose()
+
+    def default_metrics(self, tolerance: float) -> dict[str, AbstractMetric]:
+        """As [`jaxatt.plants.Proximity.default_metrics`][], with the position error
+        $r - r_d$ [m]."""
+        return _pose_metrics(tolerance)
