@@ -51,7 +51,11 @@ class Performance(eqx.Module):
       194 µs plain (1.15-1.24x), but the program compiled in 3.5-3.8 s against 1.8-2.0 s,
       which a run recovers only after about 70 000 steps at 300 samples; at 1000 samples,
       282 against 579 µs (2.05x). Off for a single trajectory (13.7 against 8.3 µs a step)
-      and off on GPUs and TPUs, where it has not been measured.
+      and off on GPUs and TPUs, where it has not been measured. On every reproduced family
+      (benchmarks/README.md, `bench_scalarize_families.py`, 2026-12-05): 1.02-3.9x faster at
+      1000 and 4000 samples, except the cheapest loop, the rigid-body MRP PD law, at 1000
+      (0.71x; 2.37x at 4000); Wu 2018's safe approach gains 1.04-1.12x for 38 s of compile
+      against 18 s, so `scalarize=False` suits it unless the run is long.
     - `max_scalarized_size`: arrays with more entries than this stay whole (default 64).
     - `max_unrolled_products`: matrix products needing more scalar multiplications than this
       stay one packed product (default 64; a 3x3 matrix product needs 27). Keeps the compile
