@@ -87,6 +87,33 @@ def relative_difference(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.max(np.abs(a[finite] - b[finite]) / scale, initial=0.0))
 
 
+def tree_relative_difference(a, b) -> float:
+    """Largest |a - b| / |b| over the finite entries of two pytrees (0 where both are 0); inf
+    where their non-finite entries differ."""
+    worst = 0.0
+    for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b), strict=True):
+        x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
+        finite = np.isfinite(y)
+        if not np.array_equal(finite, np.isfinite(x)) or not np.array_equal(
+            x[~finite], y[~finite], equal_nan=True
+        ):
+            return float("inf")
+        scale = np.where(y[finite] == 0, 1.0, np.abs(y[finite]))
+        worst = max(worst, float(np.max(np.abs(x[finite] - y[finite]) / scale, initial=0.0)))
+    return worst
+
+
+def round_robin(calls: dict, repeat: int) -> dict:
+    """`{name: seconds}`: the fastest of `repeat` runs of each call, run in turns (one of each
+    per round, after the caller's warm-up), so that the machine's changing speed touches all
+    of them alike. A call returns JAX arrays; each run waits for them."""
+    best = dict.fromkeys(calls, float("inf"))
+    for _ in range(repeat):
+        for name, call in calls.items():
+            best[name] = min(best[name], run_time(lambda: jax.block_until_ready(call()), 1))
+    return best
+
+
 # ---------------------------------------------------------------------------------------------
 # Flags.
 

@@ -43,6 +43,7 @@ Usage (from the repository root):
 """
 
 import argparse
+import functools
 import sys
 
 import _common as common
@@ -50,7 +51,6 @@ import _quick
 import jax
 import jax.numpy as jnp
 import jax.random as jr
-import numpy as np
 
 from jaxatt.montecarlo import monte_carlo
 from jaxatt.simulation import SCALARIZE_FROM, Continuous, Performance, ZeroOrderHold
@@ -150,20 +150,6 @@ def batch_of(x0, n: int, key):
     return jax.tree.unflatten(treedef, out)
 
 
-def relative_difference(a, b) -> float:
-    """Largest |a - b| / max(|b|, 1e-300) over the finite entries; inf where the non-finite
-    patterns differ."""
-    worst = 0.0
-    for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b), strict=True):
-        x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
-        finite = np.isfinite(y)
-        if not np.array_equal(finite, np.isfinite(x)):
-            return float("inf")
-        scale = np.maximum(np.abs(y[finite]), 1e-300)
-        worst = max(worst, float(np.max(np.abs(x[finite] - y[finite]) / scale, initial=0.0)))
-    return worst
-
-
 def measure(name: str, batch: int, args) -> dict:
     loop, x0, dt, sampling = family(name, args.steps)
     x0s = batch_of(x0, batch, jr.key(args.seed))
@@ -189,11 +175,10 @@ def measure(name: str, batch: int, args) -> dict:
         program = _quick.UserProgram(call, Performance(scalarize=scalarize))
         compiled[kind], compile_s = common.compile_timed(program, (loop, x0s))
         metrics[kind] = jax.block_until_ready(compiled[kind](loop, x0s))  # warm-up
-        row[kind] = {"compile_s": compile_s, "run_s": float("inf")}
-    for _ in range(args.repeat):
-        for kind in kinds:
-            run_s = _quick.run_time(lambda: jax.block_until_ready(compiled[kind](loop, x0s)), 1)
-            row[kind]["run_s"] = min(row[kind]["run_s"], run_s)
+        row[kind] = {"compile_s": compile_s}
+    calls = {kind: functools.partial(compiled[kind], loop, x0s) for kind in kinds}
+    for kind, run_s in common.round_robin(calls, args.repeat).items():
+        row[kind]["run_s"] = run_s
     for kind in kinds:
         row[kind]["state_steps_per_s"] = batch * args.steps / row[kind]["run_s"]
     row["scalarized_speedup"] = row["plain"]["run_s"] / row["scalarized"]["run_s"]
@@ -201,11 +186,11 @@ def measure(name: str, batch: int, args) -> dict:
     saved_per_step = (row["plain"]["run_s"] - row["scalarized"]["run_s"]) / args.steps
     extra_compile = row["scalarized"]["compile_s"] - row["plain"]["compile_s"]
     row["break_even_steps"] = extra_compile / saved_per_step if saved_per_step > 0 else None
-    row["metrics_relative_difference"] = relative_difference(
+    row["metrics_relative_difference"] = common.tree_relative_difference(
         metrics["scalarized"], metrics["plain"]
     )
     row["per_metric_relative_difference"] = {
-        k: relative_difference(metrics["scalarized"][k], metrics["plain"][k])
+        k: common.tree_relative_difference(metrics["scalarized"][k], metrics["plain"][k])
         for k in metrics["plain"]
     }
     return row

@@ -32,6 +32,7 @@ Usage (from the repository root):
 """
 
 import argparse
+import functools
 import sys
 from typing import ClassVar
 
@@ -40,7 +41,6 @@ import _quick
 import jax
 import jax.numpy as jnp
 import jax.random as jr
-import numpy as np
 
 from jaxatt.montecarlo import monte_carlo
 from jaxatt.references import AbstractReference, AttitudeReference
@@ -94,22 +94,6 @@ def with_traced_zero_rates(loop: ClosedLoop) -> ClosedLoop:
     )
 
 
-def relative_difference(a, b) -> float:
-    """Largest |a - b| / |b| over the finite entries (0 where both are 0); inf where the
-    non-finite entries differ."""
-    worst = 0.0
-    for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b), strict=True):
-        x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
-        finite = np.isfinite(y)
-        if not np.array_equal(finite, np.isfinite(x)) or not np.array_equal(
-            x[~finite], y[~finite], equal_nan=True
-        ):
-            return float("inf")
-        scale = np.where(y[finite] == 0, 1.0, np.abs(y[finite]))
-        worst = max(worst, float(np.max(np.abs(x[finite] - y[finite]) / scale, initial=0.0)))
-    return worst
-
-
 def measure(name: str, batch: int, args) -> dict:
     loop, x0s = build(name, jr.key(args.seed), batch)
     loops = {"numpy": loop, "traced": with_traced_zero_rates(loop)}
@@ -129,20 +113,21 @@ def measure(name: str, batch: int, args) -> dict:
         program = _quick.UserProgram(default_call)
         compiled[kind], compile_s = common.compile_timed(program, (closed_loop, x0s))
         metrics[kind] = jax.block_until_ready(compiled[kind](closed_loop, x0s))  # warm-up
-        row[kind] = {"compile_s": compile_s, "run_s": float("inf")}
-    for _ in range(args.repeat):
-        for kind, closed_loop in loops.items():
-            run_s = _quick.run_time(
-                lambda: jax.block_until_ready(compiled[kind](closed_loop, x0s)), 1
-            )
-            row[kind]["run_s"] = min(row[kind]["run_s"], run_s)
+        row[kind] = {"compile_s": compile_s}
+    calls = {kind: functools.partial(compiled[kind], loop, x0s) for kind, loop in loops.items()}
+    for kind, run_s in common.round_robin(calls, args.repeat).items():
+        row[kind]["run_s"] = run_s
     for kind in loops:
         row[kind]["state_steps_per_s"] = batch * steps / row[kind]["run_s"]
     final = _quick.UserProgram(final_states)
     states = {kind: final(closed_loop, x0s) for kind, closed_loop in loops.items()}
     row["speedup"] = row["traced"]["run_s"] / row["numpy"]["run_s"]
-    row["metrics_relative_difference"] = relative_difference(metrics["numpy"], metrics["traced"])
-    row["final_states_relative_difference"] = relative_difference(states["numpy"], states["traced"])
+    row["metrics_relative_difference"] = common.tree_relative_difference(
+        metrics["numpy"], metrics["traced"]
+    )
+    row["final_states_relative_difference"] = common.tree_relative_difference(
+        states["numpy"], states["traced"]
+    )
     return row
 
 
