@@ -419,8 +419,12 @@ def test_every_library_plant_has_default_metrics_on_its_own_signals():
         if name.startswith("stand-in"):
             continue
         loop = make_loop()
-        y0 = loop.init(0.0, _index(make_x0s(), 0))
-        signals = set(jax.eval_shape(lambda y, loop=loop: loop.signals(0.0, y, None), y0))
+        signals = set(
+            jax.eval_shape(
+                lambda x, loop=loop: loop.signals(0.0, loop.init(0.0, x), None),
+                _index(make_x0s(), 0),
+            )
+        )
         read = {metric.signal for metric in loop.default_metrics(1e-2).values()}
         if not read or not read <= signals:
             missing[name] = sorted(read - signals) or "no default metrics"
