@@ -10,6 +10,7 @@ can force, so the derivative programs are checked for the mechanism: no float eq
 beyond those of the function itself.
 """
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -49,6 +50,22 @@ def test_nan_propagates_and_ties_take_the_first_element():
     assert np.isnan(clip(np.nan, -1.0, 1.0))
     np.testing.assert_array_equal(clip(np.array([-2.0, 0.5, 2.0]), -1.0, 1.0), [-1.0, 0.5, 1.0])
     np.testing.assert_array_equal(clip(np.array([-2.0, 2.0]), upper=1.0), [-2.0, 1.0])
+
+
+def test_clip_equals_jnp_clip_with_nan_and_infinite_bounds():
+    """A NaN bound gives NaN, as in `jnp.clip` (it used to be ignored, returning the unclipped
+    value: a saturation whose limit a diverged tuning step made NaN passed the command on)."""
+    x = np.array([-3.0, -0.5, 0.0, 0.5, 3.0, np.nan, -np.inf, np.inf])
+    bounds = (-1.0, 1.0, np.nan, -np.inf, np.inf, 0.0)
+    for lower in bounds:
+        for upper in bounds:
+            expected = jnp.clip(x, lower, upper)
+            np.testing.assert_array_equal(clip(x, lower, upper), expected)  # Python numbers
+            traced = jax.jit(clip)(x, jnp.asarray(lower), jnp.asarray(upper))
+            np.testing.assert_array_equal(traced, expected)
+    assert np.all(np.isnan(clip(x, upper=jnp.nan))) and np.all(np.isnan(clip(x, np.nan)))
+    limit = eqx.tree_at(lambda s: s.limit, Saturation(0.5), jnp.nan)
+    assert np.all(np.isnan(limit(0.0, jnp.array([0.1, -2.0, 3.0]), None)[0]))
 
 
 def test_clip_gradients_in_x_and_in_the_bounds():

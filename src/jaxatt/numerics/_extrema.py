@@ -58,17 +58,25 @@ def clip(
 ) -> Real[Array, "..."]:
     r"""$\min(\max(x, \text{lower}), \text{upper})$ (as `jnp.clip`; `None` leaves that side open).
 
-    A NaN in `x` propagates; the bounds must be numbers (a NaN bound is never chosen).
+    A NaN in `x` or in a bound propagates, as in `jnp.clip`: a saturation limit that became NaN
+    (a diverged tuning step) gives a NaN command, never the unclipped one.
 
     **Gradient:** 1 with respect to $x$ inside the bounds (at a bound too), and that of the bound
     that is active outside them.
     """
     out = jnp.asarray(x)
     if lower is not None:
-        out = jnp.where(out < lower, lower, out)
+        out = jnp.where(_or_nan(out < lower, lower), lower, out)
     if upper is not None:
-        out = jnp.where(out > upper, upper, out)
+        out = jnp.where(_or_nan(out > upper, upper), upper, out)
     return out
+
+
+def _or_nan(chosen: Array, bound) -> Array:
+    """`chosen`, or everywhere where `bound` is NaN (skipped for a Python number)."""
+    if isinstance(bound, (int, float)) and not math.isnan(bound):
+        return chosen
+    return chosen | jnp.isnan(bound)
 
 
 def amax(
