@@ -253,10 +253,13 @@ def test_smooth_switching_converges_to_sign(law, switching_type):
         difference = jnp.where(outside, _vmapped(smooth, "rate", BATCH) - exact, 0)
         errors.append(float(jnp.max(jnp.abs(difference))))
     assert errors[0] > 0
-    assert all(b < a for a, b in zip(errors, errors[1:]) if a > 0)
+    # The error shrinks with the width until it is round-off (under XLA's default settings
+    # the exponential law's is 2.2e-16 at both 1e-4 and 1e-8: equal, not smaller).
+    roundoff = 1e-14 * float(jnp.max(jnp.abs(exact)))
+    assert all(b < a for a, b in zip(errors, errors[1:]) if a > roundoff)
     # |s| >= 1e-3 is outside a layer of width 1e-8: equal up to round-off (sig_pow vs
     # abs_pow * switching, fused differently).
-    assert errors[-1] <= 1e-14 * float(jnp.max(jnp.abs(exact)))
+    assert errors[-1] <= roundoff
 
 
 @pytest.mark.parametrize("law", list(ALL_LAWS.values()), ids=list(ALL_LAWS))
