@@ -596,14 +596,13 @@ def test_xla_merges_the_repeated_sines_of_a_closed_loop():
     assert checked >= 3
 
 
-_SCALAR_LIBRARY_CALLS = (
+_SCALAR_LIBRARY_CALLS = (  # not `log`: the scalarizer replaces it (tests/numerics/test_log.py)
     "acos",
     "asin",
     "atan",
     "atan2",
     "atanh",
     "cos",
-    "log",
     "log1p",
     "pow",
     "sin",
@@ -634,13 +633,14 @@ def _state_dependent_primitives(jaxpr, tainted: list[bool], found: set[str]) -> 
 
 
 def test_no_library_closed_loop_takes_a_c_library_function_of_its_state():
-    """The powers take their logarithm from `jaxatt.numerics.vectorized_log`, gravity its
-    |r|^3 from a square root, the prescribed-performance transformation its atanh from
-    `vectorized_atanh`, anomalies and Euler angles their sines from `vectorized_sincos`,
-    Smith's eigenvalue formula (Zhang 2021, Yue 2018 eq. 22) its arccos from
-    `vectorized_arccos`: no float64 `acos`, `asin`, `atan`, `atan2`, `atanh`, `cos`, `log`,
+    """Gravity takes its |r|^3 from a square root, the prescribed-performance transformation
+    its atanh from `vectorized_atanh`, anomalies and Euler angles their sines from
+    `vectorized_sincos`, Smith's eigenvalue formula (Zhang 2021, Yue 2018 eq. 22) its arccos
+    from `vectorized_arccos`: no float64 `acos`, `asin`, `atan`, `atan2`, `atanh`, `cos`,
     `log1p`, `pow`, `sin` or `tan` of the state (XLA:CPU's scalar C-library calls, one per
-    sample in a batch) is left in any library closed loop's vector field. Those of time or the
+    sample in a batch) is left in any library closed loop's vector field. (`log` is: the
+    scalarizer replaces it by `jaxatt.numerics.vectorized_log`, and in the plain layout XLA's
+    is the faster one.) Those of time or the
     parameters alone are computed once per step for the whole batch and do not count: the
     check follows the state's dependents through one traced evaluation (what `vmap` over a
     batch of states would batch). Traced only, nothing compiled."""

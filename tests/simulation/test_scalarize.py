@@ -208,9 +208,11 @@ def test_vmapped_scalarized_simulation_lowers_to_elementwise_code(m1):
         hlo = run.lower(params, x0).compile().as_text()
         computations = {c.split(" ", 1)[0]: c for c in re.split(r"\n(?=%)", hlo)}
         bodies = [computations["%" + name] for name in re.findall(r"body=%([\w.\-]+)", hlo)]
-        # The inner time loop: the while body that contains no loop itself.
+        # The inner time loop: the while body that contains no loop itself, with the fused
+        # computations it calls.
         (inner,) = [body for body in bodies if " while(" not in body]
-        return inner
+        called = re.findall(r"calls=%([\w.\-]+)", inner)
+        return "\n".join([inner, *(computations["%" + name] for name in called)])
 
     assert " dot(" in step_loop_hlo(False)  # what the test guards against
     fast = step_loop_hlo(True)

@@ -52,7 +52,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from .._validation import check_nonnegative, check_positive, check_spd
-from ..numerics import clip, maximum, minimum, safe_norm, sig_pow, solve3, vectorized_log
+from ..numerics import clip, maximum, minimum, safe_norm, sig_pow, solve3
 from ..plants import Proximity, ProximityState
 from ..references import PoseReference
 from ..rotations import mrp_from_quat, mrp_kinematics_matrix, skew
@@ -284,7 +284,7 @@ class SafeApproachSlidingMode(AbstractController):
             # gamma |e1|^(gamma - 1) with |e1| floored (> 0): no C-library pow call per element
             # (not `abs_pow`, whose exponent must be >= 0; gamma - 1 is negative for gamma < 1)
             floored = maximum(jnp.abs(e1), self.floor)
-            slope = self.gamma * jnp.exp((self.gamma - 1.0) * vectorized_log(floored))
+            slope = self.gamma * jnp.exp((self.gamma - 1.0) * jnp.log(floored))
             w_dot = self.k1 * e2 + self.k2 * slope * e2
         kappa, kappa_dot = w + barrier, w_dot + barrier_rate
         if self.velocity_limit is None:

@@ -88,6 +88,11 @@ def vectorized_log(x: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
 
     Other dtypes go to `jnp.log` (XLA vectorizes float32's itself).
 
+    Components write `jnp.log`: the scalarized program
+    ([`Performance`][jaxatt.simulation.Performance]`(scalarize=...)`, the batched Monte Carlo's
+    default from 1000 samples) has every float64 `log` replaced by this function, where it is the
+    faster one; in a plain vmapped program XLA's `log` is (benchmarks/README.md).
+
     **Derivative:** $1/x$ (a `jax.custom_jvp`; the bit manipulation has no derivative of its own).
     """
     x = jnp.asarray(x)
