@@ -77,20 +77,23 @@ def _memory_map_limit() -> int | None:
 _MAP_LIMIT = _memory_map_limit()
 
 
-@pytest.fixture(autouse=True)
-def _compiled_programs_stay_under_the_memory_map_limit():
-    """Every program XLA:CPU compiles holds memory mappings for its machine code (about 5 for
-    a small program, more for a closed loop; for the programs of tests/simulation/test_simulate.py
-    1.6x more with XLA's default fusion emitters than with its IR emitters), and JAX
-    keeps every compiled program for the life of the process. A pytest worker compiles about
-    a thousand programs: one reached 43 000 mappings by the end of a CI-configured run. At the
-    kernel's limit (vm.max_map_count, 65 530 by default) XLA's JIT fails to allocate ("LLVM
-    compilation error: Cannot allocate memory") and the process dies with a segfault while the
-    error propagates: the crash that hit 6 of 9 runs of the suite with XLA's defaults
-    (docs/testing.md). After a test that leaves the worker past half the limit, the compiled
-    programs are dropped (`jax.clear_caches()`); tests after it compile what they need again."""
-    yield
-    if _MAP_LIMIT is None:
+def pytest_runtest_teardown(item, nextitem):
+    """Compiled programs stay under the memory-map limit. Every program XLA:CPU compiles
+    holds memory mappings for its machine code (about 5 for a small program, more for a
+    closed loop; for the programs of tests/simulation/test_simulate.py 1.6x more with XLA's
+    default fusion emitters than with its IR emitters), and JAX keeps every compiled program
+    for the life of the process. A pytest worker compiles about a thousand programs: one
+    reached 43 000 mappings by the end of a CI-configured run. At the kernel's limit
+    (vm.max_map_count, 65 530 by default) XLA's JIT fails to allocate ("LLVM compilation
+    error: Cannot allocate memory") and the process dies with a segfault while the error
+    propagates: the crash that hit 6 of 9 runs of the suite with XLA's defaults
+    (docs/testing.md). When a worker is past half the limit, its compiled programs are
+    dropped (`jax.clear_caches()`) and the tests after compile what they need again.
+
+    Only between modules, never between two tests of one module: a module's shared programs
+    must stay compiled, and tests count their traces (tests/reaching/test_convergence_times.py
+    asserts one trace for all laws; a clear between its tests failed it in a CI run)."""
+    if _MAP_LIMIT is None or (nextitem is not None and nextitem.path == item.path):
         return
     count = _memory_map_count()
     if count is not None and count > _MAP_LIMIT // 2:
