@@ -615,9 +615,13 @@ def _state_dependent_primitives(jaxpr, tainted: list[bool], found: set[str]) -> 
     `tainted` input (what `vmap` over those inputs would batch); returns the outputs' taints.
     Calls (`jit`, `custom_jvp_call`, ...) are followed argument by argument; loops and branches
     conservatively: every output depends on every input."""
-    env = {v: t for v, t in zip(jaxpr.invars, tainted)}
+    env = dict(zip(jaxpr.invars, tainted))
+
+    def taint(var) -> bool:
+        return not isinstance(var, jex.Literal) and env.get(var, False)
+
     for eqn in jaxpr.eqns:
-        ins = [env.get(v, False) if not isinstance(v, jex.Literal) else False for v in eqn.invars]
+        ins = [taint(v) for v in eqn.invars]
         if not any(ins):
             continue
         found.add(eqn.primitive.name)
@@ -629,7 +633,7 @@ def _state_dependent_primitives(jaxpr, tainted: list[bool], found: set[str]) -> 
             else:
                 _state_dependent_primitives(sub, [True] * len(sub.invars), found)
         env.update(zip(eqn.outvars, outs))
-    return [env.get(v, False) if not isinstance(v, jex.Literal) else False for v in jaxpr.outvars]
+    return [taint(v) for v in jaxpr.outvars]
 
 
 def test_no_library_closed_loop_takes_a_c_library_function_of_its_state():
@@ -638,12 +642,12 @@ def test_no_library_closed_loop_takes_a_c_library_function_of_its_state():
     `vectorized_sincos`, Smith's eigenvalue formula (Zhang 2021, Yue 2018 eq. 22) its arccos
     from `vectorized_arccos`: no float64 `acos`, `asin`, `atan`, `atan2`, `atanh`, `cos`,
     `log1p`, `pow`, `sin` or `tan` of the state (XLA:CPU's scalar C-library calls, one per
-    sample in a batch) is left in any library closed loop's vector field. (`log` is: the
+    sample in a batch) is left in any library closed loop's vector field. `log` may stay: the
     scalarizer replaces it by `jaxatt.numerics.vectorized_log`, and in the plain layout XLA's
-    is the faster one.) Those of time or the
-    parameters alone are computed once per step for the whole batch and do not count: the
-    check follows the state's dependents through one traced evaluation (what `vmap` over a
-    batch of states would batch). Traced only, nothing compiled."""
+    is the faster one. Calls on time or the parameters alone are computed once per step for
+    the whole batch and do not count: the check follows the state's dependents through one
+    traced evaluation (what `vmap` over a batch of states would batch). Traced only, nothing
+    compiled."""
     calls = {}
     for name in CASES:
         if name.startswith("stand-in"):
