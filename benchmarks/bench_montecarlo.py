@@ -154,8 +154,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     ratio = args.horizon / args.dt
     if args.dt <= 0 or args.horizon <= 0 or abs(ratio - round(ratio)) > 1e-9 * ratio:
         p.error("--horizon must be a positive whole multiple of --dt")
-    if min(args.batches) < 1 or max(args.batches) > 100_000:
-        p.error("--batches must lie in [1, 100000]")
+    if min(args.batches) < 1 or max(args.batches) > 1_000_000:
+        p.error("--batches must lie in [1, 1000000]")
     if args.repeat < 1 or args.baseline_repeat < 1 or args.numpy_max_steps < 1:
         p.error("repeats and step caps must be positive")
     if args.save_every is not None and (args.save_every < 1 or round(ratio) % args.save_every != 0):

@@ -3,12 +3,16 @@ import would go unnoticed until someone records numbers. Each script's `--help` 
 everything it needs at module level (jax, jaxatt, the shared helpers) and must exit 0. All of
 them run in one fresh interpreter (as `python benchmarks/bench_x.py --help` would, benchmarks/
 first on sys.path), so JAX and jaxatt are imported once. `bench_quick.py` (the former
-`jaxatt bench`) also runs for real at a tiny size."""
+`jaxatt bench`) also runs for real at a tiny size. The GPU run prepared for a session that is
+lent an accelerator (`benchmarks/gpu_run.sh`) is checked without a GPU: the arguments it passes
+to `bench_montecarlo.py` must parse there, in the same interpreter."""
 
 import json
 import pathlib
 import subprocess
 import sys
+
+import pytest
 
 
 BENCHMARKS = pathlib.Path(__file__).resolve().parents[1] / "benchmarks"
@@ -16,7 +20,7 @@ SCRIPTS = sorted(p.name for p in BENCHMARKS.glob("bench_*.py"))
 
 CHILD = r"""
 import contextlib, io, json, runpy, sys
-bench_dir, scripts = sys.argv[1], json.loads(sys.argv[2])
+bench_dir, scripts, gpu_lines = sys.argv[1], json.loads(sys.argv[2]), json.loads(sys.argv[3])
 sys.path.insert(0, bench_dir)
 report = {}
 for script in scripts:
@@ -31,22 +35,57 @@ for script in scripts:
             f"exit {stop.code}")
     except Exception as error:
         report[script] = f"{type(error).__name__}: {error}"
-print(json.dumps(report))
+montecarlo = runpy.run_path(f"{bench_dir}/bench_montecarlo.py", run_name="bench_montecarlo")
+gpu_runs = []
+for line in gpu_lines:
+    try:
+        args = montecarlo["parse_args"](line.split())
+        gpu_runs.append({"batches": args.batches, "horizon": args.horizon, "dtype": args.dtype})
+    except SystemExit as stop:
+        gpu_runs.append(f"exit {stop.code}")
+print(json.dumps({"help": report, "gpu_runs": gpu_runs}))
 """
 
 
-def test_every_benchmark_script_imports_and_parses_help():
-    assert {"bench_montecarlo.py", "bench_gradient.py", "bench_scaling.py"} <= set(SCRIPTS)
+@pytest.fixture(scope="module")
+def child_report():
+    gpu = subprocess.run(
+        ["bash", str(BENCHMARKS / "gpu_run.sh")],
+        env={"DRY_RUN": "1", "PATH": "/usr/bin:/bin"},
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert gpu.returncode == 0, gpu.stderr
     done = subprocess.run(
-        [sys.executable, "-c", CHILD, str(BENCHMARKS), json.dumps(SCRIPTS)],
+        [
+            sys.executable,
+            "-c",
+            CHILD,
+            str(BENCHMARKS),
+            json.dumps(SCRIPTS),
+            json.dumps(gpu.stdout.splitlines()),
+        ],
         capture_output=True,
         text=True,
         timeout=300,
         cwd=BENCHMARKS.parent,
     )
     assert done.returncode == 0, done.stderr[-2000:]
-    report = json.loads(done.stdout.strip().splitlines()[-1])
-    assert report == {script: "ok" for script in SCRIPTS}
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def test_every_benchmark_script_imports_and_parses_help(child_report):
+    assert {"bench_montecarlo.py", "bench_gradient.py", "bench_scaling.py"} <= set(SCRIPTS)
+    assert child_report["help"] == {script: "ok" for script in SCRIPTS}
+
+
+def test_the_prepared_gpu_run_passes_arguments_bench_montecarlo_accepts(child_report):
+    # issue 18: batches up to 10^6, in float32 and in float64
+    assert child_report["gpu_runs"] == [
+        {"batches": [1000, 10000, 100000, 1000000], "horizon": 2.0, "dtype": dtype}
+        for dtype in ("float32", "float64")
+    ]
 
 
 def test_bench_quick_prints_a_checked_table():
