@@ -39,6 +39,23 @@ _CACHE_OPTIONS = (
 )
 
 
+@pytest.fixture
+def no_jaxtyping():
+    """Switch off the jaxtyping call-time checks so the library's own ValueErrors are reached.
+
+    (The suite type-checks jaxatt's annotations: `--jaxtyping-packages` in pyproject.toml. A
+    wrong type or rank is then rejected by the annotation; users, who run without the hook,
+    meet the ValueError the test checks.)
+    """
+    import jaxtyping
+
+    jaxtyping.config.update("jaxtyping_disable", True)
+    try:
+        yield
+    finally:
+        jaxtyping.config.update("jaxtyping_disable", False)
+
+
 @pytest.fixture(autouse=True)
 def _compilation_cache_options_restored():
     """A test that changes JAX's persistent-compilation-cache options (a docs block calling

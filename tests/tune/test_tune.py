@@ -291,8 +291,74 @@ def test_aggregates():
     assert float(tune.WorstCase()(values)) == 10.0
     assert float(tune.CVaR(0.8)(values)) == 9.5  # mean of the worst 20 %
     assert np.isclose(float(tune.Quantile(0.5)(values)), 5.5)
-    with pytest.raises(ValueError, match="`alpha` must lie in"):
-        tune.CVaR(1.0)
+    # A per-component penalty's values (samples x components): every aggregate reads every
+    # entry. Regression: CVaR took k from the samples and `top_k` along the components, the
+    # mean of each sample's largest components (2.25 here, or an error with 8 samples).
+    components = jnp.arange(12.0).reshape(4, 3)
+    assert float(tune.CVaR(0.5)(components)) == 8.5  # the worst 6 of 12 entries
+    assert float(tune.CVaR(0.5)(jnp.arange(24.0).reshape(8, 3))) == 17.5
+    assert float(tune.Mean()(components)) == 5.5
+
+
+@pytest.mark.parametrize(
+    "build, needle",
+    [
+        (lambda: tune.CVaR(1.0), "CVaR: `alpha` must be a number in (0, 1)"),
+        (lambda: tune.CVaR("0.9"), "CVaR: `alpha` must be a number in (0, 1)"),
+        (lambda: tune.Quantile([0.5, 0.9]), "Quantile: `q` must have shape ()"),
+        (lambda: tune.Penalty("effort", [1.0, 2.0, 3.0]), "Penalty: `bound` must have shape ()"),
+        (lambda: tune.Penalty("effort", 1.0, [1.0, 1.0]), "Penalty: `weight` must have shape ()"),
+        (lambda: tune.Penalty("effort", 1.0, aggregate="max"), "Penalty: `aggregate` must be"),
+        (lambda: _objective(aggregate=max), "SettlingObjective: `aggregate` must be"),
+        # Regression: these windows gave a chattering of 0 and a silently inactive penalty.
+        (lambda: _objective(chattering_window=(0.8, 0.2)), "`chattering_window` must have start"),
+        (
+            lambda: _objective(chattering_window=(5.0, 10.0)),
+            "overlap the run [t0, t1] = [0.0, 1.0]",
+        ),
+        (lambda: _objective(chattering_window=(np.nan, 1.0)), "`chattering_window` must have"),
+        (lambda: _objective(chattering_window=(0.5,)), "`chattering_window` must be a pair"),
+    ],
+)
+def test_bad_objective_arguments_are_refused_with_the_rule(build, needle, no_jaxtyping):
+    with pytest.raises(ValueError) as info:
+        build()
+    assert needle in str(info.value)
+
+
+def _objective(**kwargs):
+    return tune.SettlingObjective(1.0, 1e-2, 1e-2, signal="position_error", **kwargs)
+
+
+def test_a_failed_sample_makes_the_loss_inf_whatever_the_aggregate():
+    # Regression: a failed sample's time is inf, but the median of four samples ranked it out
+    # of the loss, so a run with a violated constraint (the state stays finite) gave a finite
+    # loss and gradient and `tune` went on. Also: `settled` broadcast the (n,) success flags
+    # against a per-component (n, 3) settling time (wrong entries, or an error for n != 3).
+    from jaxatt.metrics import Absolute
+
+    from .. import standins
+
+    class SpeedLimitedPD(standins.TranslationPD):
+        def admissible(self, t, measurement, reference, state):
+            return jnp.linalg.norm(measurement.v) < 1.5  # m/s
+
+    loop = ClosedLoop(standins.PointMass(1.0), SpeedLimitedPD(2.0, 3.0))
+    r = jnp.array([[1.0, 0.0, -0.5], [0.2, 0.4, 0.0], [0.5, 0.5, 0.5], [5.0, 0.0, 0.0]])
+    x0s = standins.TranslationState(r, jnp.zeros((4, 3)))
+    objective = _objective(aggregate=tune.Quantile(0.5), norm=Absolute())
+    loss, aux = tune.evaluate(loop, objective, x0s)
+    status = np.asarray(aux["status"])
+    assert list(status) == [jaxatt.Status.successful] * 3 + [jaxatt.Status.constraint_violated]
+    times = np.asarray(aux["objective_time"])
+    assert times.shape == (4, 3) and np.isfinite(times[:3]).all() and np.isinf(times[3]).all()
+    assert float(loss) == np.inf  # the median of the times alone is finite
+    settled = np.asarray(aux["settled"])
+    assert settled.shape == (4, 3) and not settled[3].any()
+    np.testing.assert_array_equal(settled[:3], np.isfinite(np.asarray(aux["settling_time"]))[:3])
+    params = {"kd": tune.Parameter("controller.kd", tune.Positive())}
+    with pytest.raises(tune.NonFiniteLossError, match="at step 1"):
+        tune.tune(loop, params, objective, x0s, steps=3, optimizer=optax.sgd(1e-3), progress=False)
 
 
 def test_equal_tuning_problems_are_one_static_argument():

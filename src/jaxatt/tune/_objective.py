@@ -24,6 +24,7 @@ diverged sample can never lower the loss.
 """
 
 import abc
+import numbers
 
 import diffrax as dfx
 import equinox as eqx
@@ -32,7 +33,12 @@ import jax.numpy as jnp
 import jax.tree_util as jtu
 from jaxtyping import Array, Float, PyTree
 
-from .._validation import check_in_open_interval, check_nonnegative, check_positive
+from .._validation import (
+    check_in_open_interval,
+    check_nonnegative,
+    check_positive,
+    check_shape,
+)
 from ..metrics import (
     AbstractMetric,
     AbstractNorm,
@@ -77,24 +83,33 @@ class Quantile(AbstractAggregate):
     q: Float[Array, ""]
 
     def __init__(self, q: float | int):
-        self.q = check_in_open_interval("Quantile", "q", q, 0.0, 1.0)
+        self.q = check_in_open_interval(
+            "Quantile", "q", check_shape("Quantile", "q", q, ()), 0.0, 1.0
+        )
 
     def __call__(self, values):
         return jnp.quantile(values, self.q)
 
 
 class CVaR(AbstractAggregate):
-    r"""Conditional value at risk: the mean of the worst $(1 - \alpha)$ fraction of samples."""
+    r"""Conditional value at risk: the mean of the worst $(1 - \alpha)$ fraction of the values
+    (of the samples; of every sample's every component for a per-component penalty, as
+    [`Mean`][] and [`Quantile`][] take them), at least one."""
 
     alpha: float = eqx.field(static=True)
 
     def __init__(self, alpha: float | int):
-        if not 0.0 < alpha < 1.0:
-            raise ValueError(f"CVaR: `alpha` must lie in (0, 1), got alpha={alpha}.")
+        if (
+            isinstance(alpha, bool)
+            or not isinstance(alpha, numbers.Real)
+            or not 0.0 < float(alpha) < 1.0
+        ):
+            raise ValueError(f"CVaR: `alpha` must be a number in (0, 1), got {alpha!r}.")
         self.alpha = float(alpha)
 
     def __call__(self, values):
-        k = max(1, int(round((1 - self.alpha) * values.shape[0])))
+        values = jnp.ravel(values)
+        k = max(1, int(round((1 - self.alpha) * values.size)))
         return jnp.mean(jax.lax.top_k(values, k)[0])
 
 
@@ -103,6 +118,18 @@ class WorstCase(AbstractAggregate):
 
     def __call__(self, values):
         return amax(values)
+
+
+def _aggregate(where: str, aggregate: AbstractAggregate | None) -> AbstractAggregate:
+    """`aggregate`, `Mean()` if None; anything else is refused with a message."""
+    if aggregate is None:
+        return Mean()
+    if not isinstance(aggregate, AbstractAggregate):
+        raise ValueError(
+            f"{where}: `aggregate` must be a jaxatt.tune aggregate (Mean(), Quantile(q), "
+            f"CVaR(alpha), WorstCase()) or None, got {aggregate!r}."
+        )
+    return aggregate
 
 
 SAMPLE_METRICS = (
@@ -141,9 +168,13 @@ class Penalty(eqx.Module):
         aggregate: AbstractAggregate | None = None,
     ):
         self.metric = metric
-        self.bound = check_nonnegative("Penalty", "bound", bound)
-        self.weight = check_positive("Penalty", "weight", weight)
-        self.aggregate = Mean() if aggregate is None else aggregate
+        self.bound = check_nonnegative(
+            "Penalty", "bound", check_shape("Penalty", "bound", bound, ())
+        )
+        self.weight = check_positive(
+            "Penalty", "weight", check_shape("Penalty", "weight", weight, ())
+        )
+        self.aggregate = _aggregate("Penalty", aggregate)
 
     def __call__(self, metrics: dict[str, Array]) -> Float[Array, ""]:
         excess = jax.nn.relu(metrics[self.metric] - self.bound) ** 2
@@ -176,7 +207,8 @@ class SettlingObjective(AbstractObjective):
     - `norm`: how the signal is reduced to a magnitude (default
       [`jaxatt.metrics.Euclidean`][]`()`).
     - `chattering_window`: `(start, end)` [s] of the chattering metric (default the last half
-      of the horizon).
+      of the horizon): numbers with `start < end`, overlapping `[t0, t1]` (a window outside
+      the run would make the chattering 0, and its penalty silently nothing).
     - `save_every`, `sampling`, `solver`, `performance`, `t0`: as
       [`jaxatt.montecarlo.monte_carlo`][] (the crossing is interpolated between saves).
     - `checkpoint`, `checkpoints`: how reverse mode stores the loop, as
@@ -231,7 +263,7 @@ class SettlingObjective(AbstractObjective):
             where=where,
         )
         tolerance = check_positive(where, "tolerance", tolerance)
-        self.aggregate = Mean() if aggregate is None else aggregate
+        self.aggregate = _aggregate(where, aggregate)
         for p in penalties:
             if not isinstance(p, Penalty) or p.metric not in SAMPLE_METRICS:
                 raise ValueError(
@@ -245,7 +277,7 @@ class SettlingObjective(AbstractObjective):
                 f"'attitude_error_vector'), got {signal!r}."
             )
         norm = Euclidean() if norm is None else norm
-        start, end = (0.5 * (t0 + t1), t1) if chattering_window is None else chattering_window
+        start, end = _chattering_window(where, chattering_window, t0, t1)
         # Built once, here, from checked values: inside the compiled loss they are plain
         # pytrees (no run-time checks, no host callbacks).
         self.sample_metrics = {
@@ -275,15 +307,14 @@ class SettlingObjective(AbstractObjective):
     def batch_metrics(self, closed_loop: AbstractClosedLoop, x0s: PyTree) -> dict[str, Array]:
         """Per-sample metrics over a batch (the leading axis of `x0s`)."""
         metrics = _run_metrics(self.simulation, closed_loop, x0s, self.sample_metrics)
-        metrics["settled"] = metrics["successful"] & jnp.isfinite(metrics["settling_time"])
+        settling = metrics["settling_time"]
+        successful = metrics["successful"].reshape(-1, *(1,) * (settling.ndim - 1))
+        metrics["settled"] = successful & jnp.isfinite(settling)
         return metrics
 
     def __call__(self, closed_loop: AbstractClosedLoop, x0s: PyTree):
         metrics = self.batch_metrics(closed_loop, x0s)
-        loss = self.aggregate(metrics["objective_time"])
-        for penalty in self.penalties:
-            loss = loss + penalty(metrics)
-        return loss, metrics
+        return _loss(self.aggregate, self.penalties, metrics), metrics
 
 
 class MetricObjective(AbstractObjective):
@@ -366,7 +397,7 @@ class MetricObjective(AbstractObjective):
         self.times = dict(times)
         self.limits = limits
         self.penalties = tuple(penalties)
-        self.aggregate = Mean() if aggregate is None else aggregate
+        self.aggregate = _aggregate(where, aggregate)
 
     def check(self, closed_loop: AbstractClosedLoop, x0s: PyTree) -> None:
         _check_batch("MetricObjective", closed_loop, x0s)
@@ -382,10 +413,42 @@ class MetricObjective(AbstractObjective):
 
     def __call__(self, closed_loop: AbstractClosedLoop, x0s: PyTree):
         metrics = self.batch_metrics(closed_loop, x0s)
-        loss = self.aggregate(metrics["objective_time"])
-        for penalty in self.penalties:
-            loss = loss + penalty(metrics)
-        return loss, metrics
+        return _loss(self.aggregate, self.penalties, metrics), metrics
+
+
+def _chattering_window(
+    where: str, window: tuple[float, float] | None, t0: float, t1: float
+) -> tuple[float, float]:
+    """The checked `(start, end)` of the chattering metric; the last half of the run if None."""
+    if window is None:
+        return 0.5 * (t0 + t1), t1
+    try:
+        start, end = (float(v) for v in window)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"{where}: `chattering_window` must be a pair of numbers (start, end) [s], "
+            f"got {window!r}."
+        ) from None
+    if not (start < end and start < t1 and end > t0):  # False for NaN too
+        raise ValueError(
+            f"{where}: `chattering_window` must have start < end and overlap the run "
+            f"[t0, t1] = [{t0}, {t1}] s, got {window!r}."
+        )
+    return start, end
+
+
+def _loss(
+    aggregate: AbstractAggregate, penalties: tuple[Penalty, ...], metrics: dict[str, Array]
+) -> Float[Array, ""]:
+    """`aggregate` of the objective times plus the penalties; `inf` when any sample failed.
+
+    A failed sample's time is `inf`, but a quantile or a CVaR can rank it out of the loss (the
+    median of four samples, one failed, is finite), so the rule is applied to the loss itself:
+    whatever the aggregate, a failure never gives a finite loss, and [`tune`][] stops."""
+    loss = aggregate(metrics["objective_time"])
+    for penalty in penalties:
+        loss = loss + penalty(metrics)
+    return jnp.where(jnp.all(metrics["successful"]), loss, jnp.inf)
 
 
 def _check_batch(where: str, closed_loop: AbstractClosedLoop, x0s: PyTree) -> None:
