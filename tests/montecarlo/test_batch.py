@@ -27,6 +27,7 @@ from jaxatt.metrics import (
     settling_time,
 )
 from jaxatt.numerics import safe_norm
+from jaxatt.performance import MinimumMargin
 from jaxatt.plants import MRPState, QuaternionState
 from jaxatt.scenarios import chen2022_two_phase_power as chen
 from jaxatt.simulation import (
@@ -307,6 +308,60 @@ def test_summary_statistics_on_a_hand_made_result():
         result.summary("overshoot")
     with pytest.raises(ValueError, match="quantiles"):
         result.summary(quantiles=(1.5,))
+
+
+def test_a_margins_worst_case_is_its_smallest_value_and_time_limits_reach_every_time():
+    # Regression (review): "worst" was the largest value for every metric, so the summary of a
+    # MinimumMargin reported the safest run as the worst; and to_dict/table applied
+    # `time_limit` to a metric named settling_time only (the pose plants' settle_time_* were
+    # never limited).
+    margins = jnp.array([0.30, 0.02, 0.25, jnp.nan])
+    times = jnp.array([1.0, 50.0, 2.0, jnp.inf])
+    failed = jnp.array([False, False, False, True])
+    result = mc.MonteCarloResult(
+        metrics={"margin": margins, "settle_time_position": times},
+        status=jnp.where(failed, int(Status.constraint_violated), 0).astype(jnp.int32),
+        failure_time=jnp.where(failed, 0.5, jnp.inf),
+        smallest_is_worst=("margin",),
+        time_metrics=("settle_time_position",),
+    )
+    s = result.summary("margin")
+    assert (s["worst_is"], s["worst"], s["worst_index"]) == ("smallest", -math.inf, 3)
+    assert result.summary("margin", worst="largest")["worst"] == math.inf
+    successful = mc.MonteCarloResult(
+        metrics={"margin": margins[:3]},
+        status=jnp.zeros(3, jnp.int32),
+        failure_time=jnp.full(3, jnp.inf),
+        smallest_is_worst=("margin",),
+    )
+    s = successful.summary("margin")
+    assert (s["worst"], s["worst_index"]) == (pytest.approx(0.02), 1)  # the closest call
+    assert successful.summary("margin", worst="largest")["worst_index"] == 0
+    with pytest.raises(ValueError, match="`worst` must be"):
+        successful.summary("margin", worst="max")
+    limited = result.to_dict(time_limit=10.0)["metrics"]
+    assert limited["settle_time_position"]["success_rate"] == 0.5
+    assert limited["margin"]["time_limit"] is None  # not a time
+    assert "| settle_time_position | 4 | 1 | 0 |" in result.table(time_limit=10.0)
+    assert "50.0 %" in result.table(["settle_time_position"], time_limit=10.0)
+
+
+def test_run_batch_records_which_metrics_are_margins_and_which_are_times():
+    loop = mrp_pd_loop(k1=60.0, k2=50.0)
+    x0s = MRPState(jnp.full((2, 3), 0.1), jnp.zeros((2, 3)))
+    sim = jaxatt.simulation.Simulation(0.0, 0.05, 1e-2)
+    sim = sim.with_performance(sim.performance.resolve(2))
+    metrics = {
+        "peak": Peak("u"),
+        "margin": MinimumMargin("u"),
+        "settling": SettlingTime("attitude_error_vector", 1e-2),
+        "outside": TimeOutside("attitude_error_vector", 1e-2),
+        "convergence": ConvergenceTime("attitude_error_vector", 1e-2),
+    }
+    # Traced only (no compilation): the two lists are static fields of the result.
+    shape = jax.eval_shape(lambda x: mc.run_batch(loop, x, sim, metrics), x0s)
+    assert shape.smallest_is_worst == ("margin",)
+    assert shape.time_metrics == ("settling", "outside", "convergence")
 
 
 @pytest.fixture(scope="module")

@@ -112,6 +112,12 @@ class AbstractMetric(eqx.Module):
     """
 
     failure_value: ClassVar[float] = float("nan")
+    worst: ClassVar[str] = "largest"
+    """Which end of the metric's distribution is the worst case, `"largest"` (times, peaks,
+    efforts) or `"smallest"` (margins); read by [`jaxatt.montecarlo.MonteCarloResult`][]'s
+    summaries."""
+    is_time: ClassVar[bool] = False
+    """Whether the value is a time [s]: a summary's `time_limit` applies to it."""
     streams: ClassVar[bool] = False
     """Whether the metric implements the streaming protocol (`stream_init`, `stream_update`,
     `stream_value`); if not, batch runners reduce a saved trajectory with `__call__`."""
@@ -188,6 +194,8 @@ def _outside_fraction(x_prev, x, tol) -> Array:
 class _AbstractBandTime(AbstractMetric):
     """A time computed from `norm(signal)` and a tolerance band, per component of the norm;
     `inf` for a failed sample. Concrete metrics say which time (`_time`)."""
+
+    is_time: ClassVar[bool] = True
 
     signal: str = eqx.field(static=True)
     tolerance: Float[Array, ""]
@@ -280,6 +288,8 @@ class ConvergenceTime(AbstractMetric):
     **Arguments:** as [`SettlingTime`][], and `window`: the span [s] over which the final decay
     rate is measured (default: a tenth of the record).
     """
+
+    is_time: ClassVar[bool] = True
 
     signal: str = eqx.field(static=True)
     tolerance: Float[Array, ""]

@@ -198,8 +198,16 @@ def run_batch(
         values, status, failure_time, trajs = jtu.tree_map(
             lambda x: x.reshape(-1, *x.shape[2:]), out
         )
+    objects = metrics if isinstance(metrics, Mapping) else {}
+    smallest_is_worst = tuple(name for name, m in objects.items() if m.worst == "smallest")
+    time_metrics = tuple(name for name, m in objects.items() if m.is_time)
     return MonteCarloResult(
-        metrics=values, status=status, failure_time=failure_time, trajectories=trajs
+        metrics=values,
+        status=status,
+        failure_time=failure_time,
+        trajectories=trajs,
+        smallest_is_worst=smallest_is_worst,
+        time_metrics=time_metrics,
     )
 
 

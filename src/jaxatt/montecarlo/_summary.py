@@ -10,8 +10,10 @@ computation). Conventions, for every metric:
 - statistics (mean, std, min, max, quantiles) are over the **successful samples whose metric
   is finite**; a settling time of `inf` (not settled within the horizon) is excluded from them
   and counted in `nonfinite`;
-- the **worst case** counts failed and non-finite samples as $+\infty$ (larger is worse, as
-  for settling times, torques and efforts);
+- the **worst case** is the largest value (settling times, torques, efforts) or, for a metric
+  whose smallest value is its worst (a margin: [`jaxatt.performance.MinimumMargin`][], whose
+  `worst` is `"smallest"`), the smallest; failed and non-finite samples count as the worst
+  possible value ($+\infty$, or $-\infty$ for a margin);
 - the **success rate** is the fraction of all samples that are successful, have a finite
   metric and, when `time_limit` is given, a metric $\le$ `time_limit`.
 
@@ -72,6 +74,11 @@ class MonteCarloResult(eqx.Module):
     - `failure_time`: per-sample time [s] of the first failure (`inf` when successful).
     - `trajectories`: the batched [`jaxatt.Trajectory`][] when `keep_trajectories=True`,
       else `None`.
+    - `smallest_is_worst`: the names of the metrics whose worst case is their smallest value
+      (the metric objects' `worst`; [`run_batch`][] fills it).
+    - `time_metrics`: the names of the metrics that are times [s] (the metric objects'
+      `is_time`: settling times, times outside a band, convergence times), to which the
+      summaries' `time_limit` applies; [`run_batch`][] fills it.
 
     See this module's docstring for how failures, non-finite values, the worst case and the
     success rate are counted.
@@ -81,6 +88,8 @@ class MonteCarloResult(eqx.Module):
     status: Int[Array, " n"]
     failure_time: Float[Array, " n"]
     trajectories: Trajectory | None = None
+    smallest_is_worst: tuple[str, ...] = eqx.field(default=(), static=True)
+    time_metrics: tuple[str, ...] = eqx.field(default=(), static=True)
 
     @property
     def n(self) -> int:
@@ -131,6 +140,7 @@ class MonteCarloResult(eqx.Module):
         component: int | tuple[int, ...] | None = None,
         time_limit: float | None = None,
         quantiles: Sequence[float] = (0.05, 0.5, 0.95),
+        worst: str | None = None,
     ) -> dict:
         r"""Distribution of one metric over the batch.
 
@@ -141,12 +151,15 @@ class MonteCarloResult(eqx.Module):
           success only if its metric is $\le$ `time_limit`.
         - `quantiles`: probabilities in [0, 1] at which to report quantiles (NumPy's linear
           interpolation).
+        - `worst`: `"largest"` or `"smallest"`, which end is the worst case; default the
+          metric's own (`"smallest"` for the names in `smallest_is_worst`, else `"largest"`).
 
         **Returns:** a dict: `metric`, `count` (samples), `failed` (unsuccessful samples),
         `status` (count per outcome), `nonfinite` (successful samples whose metric is
         inf/NaN, e.g. not settled), `finite`, `mean`, `std` (sample standard deviation,
         `ddof=1`), `min`, `max`, `quantiles` ({probability: value}), `worst` (failed and
-        non-finite count as inf), `worst_index`, `success_rate`, `time_limit`. Statistics of
+        non-finite count as the worst possible value, inf or -inf), `worst_index`,
+        `worst_is` (`"largest"` or `"smallest"`), `success_rate`, `time_limit`. Statistics of
         an empty selection are NaN.
 
         To summarise a settling time at another tolerance, record it as another metric
@@ -158,12 +171,23 @@ class MonteCarloResult(eqx.Module):
                 raise ValueError(
                     f"MonteCarloResult.summary: `time_limit` must be a number, got {time_limit!r}."
                 )
+        if worst is None:
+            worst = "smallest" if metric in self.smallest_is_worst else "largest"
+        if worst not in ("largest", "smallest"):
+            raise ValueError(
+                "MonteCarloResult.summary: `worst` must be 'largest', 'smallest' or None, "
+                f"got {worst!r}."
+            )
         values = self._values(metric, component)
         ok = to_host(self.successful).astype(bool)
         finite = ok & np.isfinite(values)
         selected = values[finite]
-        worst_values = np.where(finite, values, np.inf)
-        worst_index = int(np.argmax(worst_values))
+        if worst == "largest":
+            worst_values = np.where(finite, values, np.inf)
+            worst_index = int(np.argmax(worst_values))
+        else:
+            worst_values = np.where(finite, values, -np.inf)
+            worst_index = int(np.argmin(worst_values))
         success = finite if time_limit is None else finite & (values <= time_limit)
 
         def stat(fn, minimum=1):
@@ -186,9 +210,13 @@ class MonteCarloResult(eqx.Module):
             },
             "worst": float(worst_values[worst_index]),
             "worst_index": worst_index,
+            "worst_is": worst,
             "success_rate": float(np.mean(success)),
             "time_limit": time_limit,
         }
+
+    def _is_time(self, metric: str) -> bool:
+        return metric == "settling_time" or metric in self.time_metrics
 
     def _rows(self, metrics: Sequence[str] | None) -> list[tuple[str, str, tuple | None]]:
         """(label, metric, component) for every metric, components expanded."""
@@ -210,8 +238,8 @@ class MonteCarloResult(eqx.Module):
         """A JSON-ready summary of every metric (non-finite numbers become `None`).
 
         `{"count", "failed", "status", "metrics": {label: summary(...)}}`, one entry per
-        component for metrics with several; `time_limit` applies to `settling_time` only.
-        Quantile keys become strings.
+        component for metrics with several; `time_limit` [s] applies to the time metrics
+        (`time_metrics`, and a metric named `settling_time`). Quantile keys become strings.
         """
         out: dict = {
             "count": self.n,
@@ -220,7 +248,7 @@ class MonteCarloResult(eqx.Module):
             "metrics": {},
         }
         for label, name, index in self._rows(None):
-            limit = time_limit if name == "settling_time" else None
+            limit = time_limit if self._is_time(name) else None
             summary = self.summary(name, component=index, time_limit=limit, quantiles=quantiles)
             summary["quantiles"] = {str(q): v for q, v in summary["quantiles"].items()}
             out["metrics"][label] = summary
@@ -234,13 +262,13 @@ class MonteCarloResult(eqx.Module):
         quantiles: Sequence[float] = (0.05, 0.5, 0.95),
     ) -> str:
         """A Markdown table, one row per metric (and component; default: all): count, failed,
-        not finite, mean, std, quantiles, worst and success rate (`time_limit` applies to
-        `settling_time`)."""
+        not finite, mean, std, quantiles, worst and success rate (`time_limit` [s] applies to
+        the time metrics, as in [`to_dict`][jaxatt.montecarlo.MonteCarloResult.to_dict])."""
         rows = {
             label: self.summary(
                 name,
                 component=index,
-                time_limit=time_limit if name == "settling_time" else None,
+                time_limit=time_limit if self._is_time(name) else None,
                 quantiles=quantiles,
             )
             for label, name, index in self._rows(metrics)

@@ -1,6 +1,6 @@
 r"""The prescribed-performance error transformation (Zhang et al. 2021 eqs. 22-30, $\delta = 1$)."""
 
-from typing import NamedTuple
+from typing import ClassVar, NamedTuple
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -75,6 +75,7 @@ class MinimumMargin(AbstractMetric):
     """
 
     signal: str = eqx.field(default="envelope_margin", static=True)
+    worst: ClassVar[str] = "smallest"  # the closest call, not the safest run
 
     def __call__(self, traj) -> Array:
         return amin(traj.signals[self.signal])
