@@ -177,6 +177,14 @@ def check_shape(where: str, name: str, value: ArrayLike, shape: tuple[int, ...])
     return arr
 
 
+def check_scalar(where: str, name: str, value: ArrayLike) -> Array:
+    """Convert to a floating array and require shape `()` (always decidable at trace time)."""
+    arr = as_float_array(value, name, where)
+    if arr.shape != ():
+        raise ValueError(f"{where}: `{name}` must be a scalar, got shape {arr.shape}.")
+    return arr
+
+
 def check_gain_shape(
     where: str, name: str, value: Array, shapes: tuple[tuple[int, ...], ...] = ((), (3,))
 ) -> Array:

@@ -255,3 +255,22 @@ def test_streamed_metrics_equal_the_trajectory_reduction_bad_samples_included():
     outside = np.asarray(reduced["outside"])
     assert np.sum(outside[np.isfinite(settling)] < settling[np.isfinite(settling)] - 1e-3) >= 2
     assert all(m.streams for m in STREAMING_METRICS.values())
+
+
+@pytest.mark.usefixtures("no_jaxtyping")
+@pytest.mark.parametrize(
+    ("make", "match"),
+    [
+        (
+            lambda: SettlingTime("e", jnp.array([1e-2, 5e-2, 1e-1])),
+            r"^SettlingTime: `tolerance` must be a scalar, got shape \(3,\)\.$",
+        ),
+        (lambda: TimeOutside("e", np.ones(2)), r"TimeOutside: `tolerance` must be a scalar"),
+        (lambda: ConvergenceTime("e", [1e-3, 1e-2]), r"ConvergenceTime: `tolerance` must be a"),
+        (lambda: ConvergenceTime("e", 1e-3, window=jnp.ones(3)), r"`window` must be a scalar"),
+        (lambda: SettlingTime("e", 0.0), r"SettlingTime: `tolerance` must be positive"),
+    ],
+)
+def test_metric_objects_refuse_bad_tolerances_and_windows(make, match):
+    with pytest.raises(ValueError, match=match):
+        make()

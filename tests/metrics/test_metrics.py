@@ -8,7 +8,6 @@ import math
 
 import jax
 import jax.numpy as jnp
-import jaxtyping
 import numpy as np
 import pytest
 
@@ -62,20 +61,6 @@ def central_difference(f, p, h):
 
 def all_finite(tree):
     return all(bool(jnp.all(jnp.isfinite(leaf))) for leaf in jax.tree_util.tree_leaves(tree))
-
-
-@pytest.fixture
-def no_jaxtyping():
-    """Switch off the jaxtyping call-time checks so the library's own ValueErrors are reached.
-
-    (Under the test suite's import hook a wrong rank is already rejected by the annotation;
-    users without the hook see the ValueError tested here.)
-    """
-    jaxtyping.config.update("jaxtyping_disable", True)
-    try:
-        yield
-    finally:
-        jaxtyping.config.update("jaxtyping_disable", False)
 
 
 # ----------------------------------------------------------------------------- settling_time
@@ -517,6 +502,18 @@ def test_float32_inputs_give_float32_outputs():
         (
             lambda: metrics.chattering(jnp.arange(4.0), jnp.ones((4, 2)), 3.0, 1.0),
             "`t_start` must not exceed `t_end`",
+        ),
+        (
+            lambda: metrics.settling_time(jnp.arange(4.0), jnp.ones(4), jnp.ones(3)),
+            r"settling_time: `tol` must be a scalar, got shape \(3,\)\.",
+        ),
+        (
+            lambda: metrics.convergence_time(jnp.arange(4.0), jnp.ones(4), jnp.ones(3)),
+            r"convergence_time: `tol` must be a scalar, got shape \(3,\)\.",
+        ),
+        (
+            lambda: metrics.convergence_time(jnp.arange(4.0), jnp.ones(4), 0.1, jnp.ones(2)),
+            r"convergence_time: `window` must be a scalar, got shape \(2,\)\.",
         ),
         (lambda: metrics.peak(jnp.ones(3)), "peak: `u`"),
         (lambda: metrics.peak_per_axis(jnp.ones((2, 2, 2))), "peak_per_axis: `u`"),

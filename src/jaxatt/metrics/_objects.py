@@ -37,7 +37,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float, PyTree
 
 from .._custom_types import RealScalarLike
-from .._validation import check_positive
+from .._validation import check_positive, check_scalar
 from ..numerics import amax, maximum, safe_norm
 from ._chattering import chattering
 from ._effort import control_effort
@@ -196,7 +196,10 @@ class _AbstractBandTime(AbstractMetric):
 
     def __init__(self, signal: str, tolerance: RealScalarLike, norm: AbstractNorm | None = None):
         self.signal = str(signal)
-        self.tolerance = check_positive(type(self).__name__, "tolerance", tolerance)
+        where = type(self).__name__
+        self.tolerance = check_positive(
+            where, "tolerance", check_scalar(where, "tolerance", tolerance)
+        )
         self.norm = Euclidean() if norm is None else norm
 
     @abc.abstractmethod
@@ -218,7 +221,8 @@ class SettlingTime(_AbstractBandTime):
 
     **Arguments:**
     - `signal`: a signal name, e.g. `"attitude_error_vector"`.
-    - `tolerance`: the band, in the signal's unit.
+    - `tolerance`: the band, in the signal's unit: a positive scalar (one band for every
+      component; checked at construction).
     - `norm`: [`Euclidean`][]`()` (default), [`MaxAbs`][]`()`, [`Absolute`][]`()`, ...
     """
 
@@ -278,7 +282,7 @@ class ConvergenceTime(AbstractMetric):
     outside, the time the measured final decay still needs. The tuning objective's time.
 
     **Arguments:** as [`SettlingTime`][], and `window`: the span [s] over which the final decay
-    rate is measured (default: a tenth of the record).
+    rate is measured, a positive scalar (default: a tenth of the record).
     """
 
     signal: str = eqx.field(static=True)
@@ -295,10 +299,13 @@ class ConvergenceTime(AbstractMetric):
         window: RealScalarLike | None = None,
     ):
         self.signal = str(signal)
-        self.tolerance = check_positive("ConvergenceTime", "tolerance", tolerance)
+        where = "ConvergenceTime"
+        self.tolerance = check_positive(
+            where, "tolerance", check_scalar(where, "tolerance", tolerance)
+        )
         self.norm = Euclidean() if norm is None else norm
         if window is not None:
-            window = check_positive("ConvergenceTime", "window", window)
+            window = check_positive(where, "window", check_scalar(where, "window", window))
         self.window = window
 
     streams: ClassVar[bool] = True
