@@ -269,8 +269,21 @@ def test_streamed_metrics_equal_the_trajectory_reduction_bad_samples_included():
         (lambda: ConvergenceTime("e", [1e-3, 1e-2]), r"ConvergenceTime: `tolerance` must be a"),
         (lambda: ConvergenceTime("e", 1e-3, window=jnp.ones(3)), r"`window` must be a scalar"),
         (lambda: SettlingTime("e", 0.0), r"SettlingTime: `tolerance` must be positive"),
+        (lambda: Chattering("u", 0.8, 0.2), r"^Chattering: `start` must be less than `end`"),
+        (lambda: Chattering("u", 0.5, 0.5), r"Chattering: `start` must be less than `end`"),
+        (lambda: Chattering("u", np.nan, 1.0), r"^Chattering: `start` must not be NaN"),
+        (lambda: Chattering("u", end=np.nan), r"^Chattering: `end` must not be NaN"),
+        (lambda: Chattering("u", jnp.zeros(2)), r"Chattering: `start` must be a scalar"),
+        (lambda: Chattering("u", "0.5"), r"Chattering: `start` must be a number"),
     ],
 )
 def test_metric_objects_refuse_bad_tolerances_and_windows(make, match):
     with pytest.raises(ValueError, match=match):
         make()
+
+
+def test_chattering_accepts_infinite_window_ends():
+    whole = Chattering("u")
+    assert float(whole.start) == -np.inf and float(whole.end) == np.inf
+    assert float(Chattering("u", 1.0).start) == 1.0
+    assert float(Chattering("u", -np.inf, 2).end) == 2.0

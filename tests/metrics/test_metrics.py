@@ -501,7 +501,23 @@ def test_float32_inputs_give_float32_outputs():
         (lambda: metrics.chattering(jnp.arange(4.0), jnp.ones((3, 2))), "`ts` and `u`"),
         (
             lambda: metrics.chattering(jnp.arange(4.0), jnp.ones((4, 2)), 3.0, 1.0),
-            "`t_start` must not exceed `t_end`",
+            r"chattering: `t_start` must be less than `t_end`, got t_start=3.0 and t_end=1.0\.",
+        ),
+        (
+            lambda: metrics.chattering(jnp.arange(4.0), jnp.ones((4, 2)), 1.0, 1.0),
+            "`t_start` must be less than `t_end`",
+        ),
+        (
+            lambda: metrics.chattering(jnp.arange(4.0), jnp.ones((4, 2)), math.nan, 1.0),
+            "chattering: `t_start` must not be NaN",
+        ),
+        (
+            lambda: metrics.chattering(jnp.arange(4.0), jnp.ones((4, 2)), None, math.nan),
+            "chattering: `t_end` must not be NaN",
+        ),
+        (
+            lambda: metrics.chattering(jnp.arange(4.0), jnp.ones((4, 2)), jnp.zeros(2), 1.0),
+            r"chattering: `t_start` must be a scalar, got shape \(2,\)",
         ),
         (
             lambda: metrics.settling_time(jnp.arange(4.0), jnp.ones(4), jnp.ones(3)),

@@ -5,6 +5,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float, Real
 
 from .._custom_types import RealScalarLike, Scalar
+from .._validation import check, check_less_than, is_traced
 from ._signals import as_signal, as_times
 
 
@@ -16,6 +17,8 @@ def _bound(where: str, name: str, value: RealScalarLike | None, default: float) 
     arr = jnp.asarray(value)
     if arr.ndim != 0:
         raise ValueError(f"{where}: `{name}` must be a scalar, got shape {arr.shape}.")
+    if not is_traced(arr):
+        check(where, name, arr, lambda xp, x: ~xp.isnan(x), "must not be NaN")
     return arr
 
 
@@ -49,8 +52,10 @@ def chattering(
     **Arguments:**
     - `ts`: sample times [s], shape `(T,)`, non-decreasing.
     - `u`: control, shape `(T, m)`, e.g. torque [N m].
-    - `t_start`: window start [s]; `None` means from the first sample.
-    - `t_end`: window end [s]; `None` means to the last sample.
+    - `t_start`: window start [s], a scalar, not NaN; `None` means from the first sample.
+    - `t_end`: window end [s], a scalar, not NaN, greater than `t_start`; `None` means to the
+      last sample. Concrete bounds are checked (`ValueError`); traced ones are not (a NaN
+      bound then selects nothing).
 
     **Returns:** a scalar in the unit of `u` (0 if the window holds fewer than two samples).
 
@@ -63,15 +68,6 @@ def chattering(
     ts = as_times(where, ts, "u", u)
     start = _bound(where, "t_start", t_start, -jnp.inf)
     end = _bound(where, "t_end", t_end, jnp.inf)
-    if (
-        t_start is not None
-        and t_end is not None
-        and not isinstance(start, jax.core.Tracer)
-        and not isinstance(end, jax.core.Tracer)
-        and bool(start > end)
-    ):
-        raise ValueError(
-            f"{where}: `t_start` must not exceed `t_end`, got t_start={float(start)!r} and "
-            f"t_end={float(end)!r}."
-        )
+    if t_start is not None and t_end is not None:
+        check_less_than(where, "t_start", start, "t_end", end)
     return _chattering(ts, u, start, end)

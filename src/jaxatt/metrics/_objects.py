@@ -37,7 +37,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float, PyTree
 
 from .._custom_types import RealScalarLike
-from .._validation import check_positive, check_scalar
+from .._validation import check, check_less_than, check_positive, check_scalar
 from ..numerics import amax, maximum, safe_norm
 from ._chattering import chattering
 from ._effort import control_effort
@@ -454,9 +454,21 @@ class Effort(AbstractMetric):
         return total + 0.5 * (t_last - t_before) * power_last
 
 
+def _window_bound(name: str, value: RealScalarLike) -> Array:
+    """A window bound of [`Chattering`][]: a scalar of the default float dtype, not NaN."""
+    bound = check_scalar("Chattering", name, value).astype(jnp.result_type(float))
+    return check("Chattering", name, bound, lambda xp, x: ~xp.isnan(x), "must not be NaN")
+
+
 class Chattering(AbstractMetric):
     r"""Total variation of `signal` (default `"u"`) over $[t_{start}, t_{end}]$
-    ([`chattering`][]); NaN for a failed sample."""
+    ([`chattering`][]); NaN for a failed sample.
+
+    **Arguments:**
+    - `signal`: a signal name (default `"u"`).
+    - `start`, `end`: the window [s], scalars, not NaN, `start < end` (infinite ends allowed:
+      the defaults take the whole record). Checked at construction.
+    """
 
     signal: str = eqx.field(static=True)
     start: Float[Array, ""]
@@ -469,8 +481,9 @@ class Chattering(AbstractMetric):
         end: RealScalarLike = float("inf"),
     ):
         self.signal = str(signal)
-        self.start = jnp.asarray(start, dtype=jnp.result_type(float))
-        self.end = jnp.asarray(end, dtype=jnp.result_type(float))
+        self.start = _window_bound("start", start)
+        self.end = _window_bound("end", end)
+        check_less_than("Chattering", "start", self.start, "end", self.end)
 
     streams: ClassVar[bool] = True
 
