@@ -257,6 +257,18 @@ def test_streamed_metrics_equal_the_trajectory_reduction_bad_samples_included():
     assert all(m.streams for m in STREAMING_METRICS.values())
 
 
+def test_streamed_chattering_keeps_the_interval_ending_one_ulp_after_the_window():
+    # The save times 0 + i * 0.01 end at 0.7000000000000001; the window (0.35, 0.7), the
+    # tuning objective's default for t1 = 0.7, must keep the last interval's increment, in
+    # the trajectory and the streaming form alike.
+    ts = 0.0 + jnp.arange(71) * 1e-2
+    assert float(ts[-1]) > 0.7
+    u = jnp.zeros((1, 71, 2)).at[0, -1].set(jnp.array([1.0, -0.5]))
+    streamed, reduced = _both_ways({"ch": Chattering("u", 0.35, 0.7)}, ts, {"u": u})
+    assert float(reduced["ch"][0]) == 1.5
+    assert float(streamed["ch"][0]) == 1.5
+
+
 @pytest.mark.usefixtures("no_jaxtyping")
 @pytest.mark.parametrize(
     ("make", "match"),

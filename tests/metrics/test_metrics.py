@@ -372,6 +372,22 @@ def test_chattering_of_switching_signal_and_gradient(chattering_jit):
     assert float(g[1]) == 0.0 and float(g[2]) == 0.0
 
 
+def test_chattering_window_ends_tolerate_the_rounding_of_save_times(chattering_jit):
+    # Save times t0 + i dt: 0 + 70 * 0.01 = 0.7000000000000001, one ulp above t1 = 0.7, and
+    # 0 + 11 * 0.03 = 0.32999999999999996, one ulp below 0.33. Each record's only increment is
+    # in the interval touching that sample; a window with the bound at the intended time keeps it.
+    ts = 0.0 + jnp.arange(71) * 1e-2
+    assert float(ts[-1]) > 0.7
+    u = jnp.zeros((71, 1)).at[-1, 0].set(1.0)
+    assert float(chattering_jit(ts, u, 0.35, 0.7)) == 1.0
+    ts = 0.0 + jnp.arange(13) * 0.03
+    assert float(ts[11]) < 0.33
+    u = jnp.zeros((13, 1)).at[-1, 0].set(1.0)
+    assert float(chattering_jit(ts, u, 0.33, 0.36)) == 1.0
+    # A sample further off than a few ulps is still outside.
+    assert float(chattering_jit(ts, u, 0.33 + 1e-12, 0.36)) == 0.0
+
+
 # ----------------------------------------------------------------------------- peak, constraints
 
 

@@ -39,7 +39,7 @@ from jaxtyping import Array, Float, PyTree
 from .._custom_types import RealScalarLike
 from .._validation import check, check_less_than, check_positive, check_scalar
 from ..numerics import amax, maximum, safe_norm
-from ._chattering import chattering
+from ._chattering import chattering, in_window
 from ._effort import control_effort
 from ._settling import convergence_time, settling_time, time_outside
 
@@ -464,6 +464,12 @@ class Chattering(AbstractMetric):
     r"""Total variation of `signal` (default `"u"`) over $[t_{start}, t_{end}]$
     ([`chattering`][]); NaN for a failed sample.
 
+    The sum runs over the sample intervals $[t_k, t_{k+1}]$ with $t_k \ge t_{start}$ and
+    $t_{k+1} \le t_{end}$, where a sample time within $8\,\varepsilon \max(1, |b|)$ seconds
+    of a bound $b$ counts as on it ($\varepsilon$ the machine epsilon of the times' dtype),
+    so a window ending at `t1` keeps the last interval of a record whose last save time
+    rounded to `t1 + 1 ulp`. The streaming form selects the same intervals.
+
     **Arguments:**
     - `signal`: a signal name (default `"u"`).
     - `start`, `end`: the window [s], scalars, not NaN, `start < end` (infinite ends allowed:
@@ -498,7 +504,7 @@ class Chattering(AbstractMetric):
     def stream_update(self, state, t, signals):
         t_prev, u_prev, total = state
         u = _sample(signals, self.signal).reshape(-1)
-        inside = (t_prev >= self.start) & (t <= self.end)
+        inside = in_window(t_prev, t, self.start, self.end)
         step = jnp.where(inside, jnp.sum(jnp.abs(u - u_prev)), 0.0)
         return t, u, (total + step).astype(total.dtype)
 
