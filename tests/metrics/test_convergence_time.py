@@ -269,6 +269,23 @@ def test_streamed_chattering_keeps_the_interval_ending_one_ulp_after_the_window(
     assert float(streamed["ch"][0]) == 1.5
 
 
+def test_convergence_time_is_continuous_at_a_zero_sample_at_the_window_start():
+    # The default window starts at t = 0.9 (k = 9); the record ends outside the band. x_k = 0
+    # is the limit x_k -> 0+: the measured rate ln(x_k / x_end) / w -> -inf, floored at one
+    # e-fold per horizon (1 s), so T_c = T_out + ln(0.5 / 0.01) s in both cases.
+    ts = jnp.linspace(0.0, 1.0, 11)
+    records = jnp.array([[0.5, 0.1, 0.001, 0, 0, 0, 0, 0, 0, x_k, 0.5] for x_k in (0.0, 1e-300)])
+    tol = 0.01
+    expected = float(time_outside(ts, records[0], tol)) + np.log(0.5 / tol)
+    reduced = [float(convergence_time(ts, x, tol)) for x in records]
+    np.testing.assert_allclose(reduced, expected, rtol=1e-12)
+    streamed, _ = _both_ways({"c": ConvergenceTime("e", tol)}, ts, {"e": records[..., None]})
+    np.testing.assert_allclose(np.asarray(streamed["c"]), expected, rtol=1e-12)
+    # No logarithm of 0 leaks into the backward pass.
+    grad = jax.grad(convergence_time, argnums=(1, 2))(ts, records[0], tol)
+    assert all(np.all(np.isfinite(np.asarray(g))) for g in grad)
+
+
 @pytest.mark.usefixtures("no_jaxtyping")
 @pytest.mark.parametrize(
     ("make", "match"),

@@ -41,7 +41,7 @@ from .._validation import check, check_less_than, check_positive, check_scalar
 from ..numerics import amax, maximum, safe_norm
 from ._chattering import chattering, in_window
 from ._effort import control_effort
-from ._settling import convergence_time, settling_time, time_outside
+from ._settling import convergence_time, decay_extrapolation, settling_time, time_outside
 
 
 def _axes(axes, ndim: int) -> tuple[int, ...]:
@@ -348,22 +348,11 @@ class ConvergenceTime(AbstractMetric):
 
     def stream_value(self, state):
         t0, _, _, t_end, last, outside, _, x_k, t_k = state
-        dtype = outside.dtype
-        tol = self.tolerance
-        span = t_end - t_k
-        unsettled = _outside(last, tol)
-        finite = jnp.isfinite(last) & jnp.isfinite(x_k)
-        positive = finite & (last > 0) & (x_k > 0)
-        safe_last = jnp.where(positive, last, 1.0)
-        safe_first = jnp.where(positive, x_k, 1.0)
-        rate = (jnp.log(safe_first) - jnp.log(safe_last)) / span
-        rate = maximum(rate, 1 / (t_end - t0))
-        safe_unsettled = unsettled & positive
-        remaining = jnp.where(
-            safe_unsettled, jnp.log(jnp.where(safe_unsettled, safe_last, tol) / tol) / rate, 0.0
+        remaining, diverged = decay_extrapolation(
+            x_k, last, t_end - t_k, t_end - t0, self.tolerance
         )
         total = t0 + outside + remaining
-        return jnp.where(unsettled & ~finite, jnp.inf, total).astype(dtype)
+        return jnp.where(diverged, jnp.inf, total).astype(outside.dtype)
 
 
 class Peak(AbstractMetric):

@@ -264,6 +264,27 @@ def time_outside(
     return _time_outside(ts, x, tol)
 
 
+def decay_extrapolation(x_k, last, span, horizon, tol) -> tuple[Array, Array]:
+    r"""The time [s] the final decay still needs, $\ln(x_{T-1}/\mathrm{tol})/\hat\lambda$ (0 when
+    settled), and whether the run diverged (unsettled with a non-finite $x_k$ or $x_{T-1}$).
+
+    $\hat\lambda = \max((\ln x_k - \ln x_{T-1})/\mathrm{span}, 1/\mathrm{horizon})$; a sample
+    $x_k \le 0$ counts as $\ln x_k = -\infty$, the floored rate (the limit $x_k \to 0^+$), so
+    the result is continuous there. Double where: no logarithm of 0 enters the graph.
+    """
+    unsettled = ~(last <= tol)
+    finite = jnp.isfinite(last) & jnp.isfinite(x_k)
+    measured = finite & (last > 0) & (x_k > 0)
+    safe_last = jnp.where(measured, last, 1.0)
+    safe_first = jnp.where(measured, x_k, 1.0)
+    rate = jnp.where(measured, (jnp.log(safe_first) - jnp.log(safe_last)) / span, -jnp.inf)
+    rate = maximum(rate, 1 / horizon)
+    extrapolate = unsettled & finite  # then last > tol > 0
+    ratio = jnp.where(extrapolate, last, tol) / tol
+    remaining = jnp.where(extrapolate, jnp.log(ratio) / rate, 0.0)
+    return remaining, unsettled & ~finite
+
+
 @jax.jit
 def _convergence_time(ts: Array, x: Array, tol: Array, window: Array) -> Array:
     dtype = jnp.result_type(ts, x)
@@ -274,20 +295,9 @@ def _convergence_time(ts: Array, x: Array, tol: Array, window: Array) -> Array:
     k = jnp.argmin(jnp.abs(ts - (t_end - window)))
     k = jax.lax.stop_gradient(jnp.minimum(k, ts.shape[0] - 2))
     span = t_end - ts[k]
-    unsettled = ~(last <= tol)
-    finite = jnp.isfinite(last) & jnp.isfinite(x[k])
-    positive = finite & (last > 0) & (x[k] > 0)
-    safe_last = jnp.where(positive, last, 1.0)
-    safe_first = jnp.where(positive, x[k], 1.0)
-    rate = (jnp.log(safe_first) - jnp.log(safe_last)) / span
-    horizon = t_end - ts[0]
-    rate = maximum(rate, 1 / horizon)
-    safe_unsettled = unsettled & positive
-    remaining = jnp.where(
-        safe_unsettled, jnp.log(jnp.where(safe_unsettled, safe_last, tol) / tol) / rate, 0.0
-    )
+    remaining, diverged = decay_extrapolation(x[k], last, span, t_end - ts[0], tol)
     total = ts[0] + outside + remaining
-    return jnp.where(unsettled & ~finite, jnp.inf, total).astype(dtype)
+    return jnp.where(diverged, jnp.inf, total).astype(dtype)
 
 
 def convergence_time(
@@ -310,9 +320,11 @@ def convergence_time(
     jumping the result. A signal still outside at the end of the record gets the time it
     would need at the decay rate $\hat\lambda$ measured over its last `window` $w$ seconds
     (exact for an exponential tail), floored at one e-fold per horizon so that a signal that
-    does not decay still gets a finite penalty. $T_c$ is continuous across the
-    settled/unsettled boundary (the extrapolation vanishes at $x = \mathrm{tol}$) and
-    differentiable almost everywhere in the samples and `tol`.
+    does not decay still gets a finite penalty; a sample $x(t_{T-1} - w) \le 0$ counts as
+    $\ln x = -\infty$ (its limit from above), i.e. takes the floored rate, so $T_c$ is
+    continuous there too. $T_c$ is continuous across the settled/unsettled boundary (the
+    extrapolation vanishes at $x = \mathrm{tol}$) and differentiable almost everywhere in the
+    samples and `tol`.
 
     A non-finite last sample (a diverged run) gives `inf`.
 
