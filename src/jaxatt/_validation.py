@@ -177,6 +177,27 @@ def check_shape(where: str, name: str, value: ArrayLike, shape: tuple[int, ...])
     return arr
 
 
+def check_scalar(where: str, name: str, value: ArrayLike) -> Array:
+    """Convert to a floating array and require shape `()` (always decidable at trace time)."""
+    arr = as_float_array(value, name, where)
+    if arr.shape != ():
+        raise ValueError(f"{where}: `{name}` must be a scalar, got shape {arr.shape}.")
+    return arr
+
+
+def check_less_than(where: str, low_name: str, low: Array, high_name: str, high: Array) -> None:
+    """Require `low < high` for two scalars (a window's ends), checked on the host when both are
+    concrete; a traced pair is not checked (NaN fails the rule)."""
+    if is_traced(low) or is_traced(high):
+        return
+    low_host, high_host = np.asarray(low), np.asarray(high)
+    if not bool(low_host < high_host):
+        raise ValueError(
+            f"{where}: `{low_name}` must be less than `{high_name}`, got "
+            f"{low_name}={describe(low_host)} and {high_name}={describe(high_host)}."
+        )
+
+
 def check_gain_shape(
     where: str, name: str, value: Array, shapes: tuple[tuple[int, ...], ...] = ((), (3,))
 ) -> Array:

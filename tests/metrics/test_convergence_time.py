@@ -255,3 +255,64 @@ def test_streamed_metrics_equal_the_trajectory_reduction_bad_samples_included():
     outside = np.asarray(reduced["outside"])
     assert np.sum(outside[np.isfinite(settling)] < settling[np.isfinite(settling)] - 1e-3) >= 2
     assert all(m.streams for m in STREAMING_METRICS.values())
+
+
+def test_streamed_chattering_keeps_the_interval_ending_one_ulp_after_the_window():
+    # The save times 0 + i * 0.01 end at 0.7000000000000001; the window (0.35, 0.7), the
+    # tuning objective's default for t1 = 0.7, must keep the last interval's increment, in
+    # the trajectory and the streaming form alike.
+    ts = 0.0 + jnp.arange(71) * 1e-2
+    assert float(ts[-1]) > 0.7
+    u = jnp.zeros((1, 71, 2)).at[0, -1].set(jnp.array([1.0, -0.5]))
+    streamed, reduced = _both_ways({"ch": Chattering("u", 0.35, 0.7)}, ts, {"u": u})
+    assert float(reduced["ch"][0]) == 1.5
+    assert float(streamed["ch"][0]) == 1.5
+
+
+def test_convergence_time_is_continuous_at_a_zero_sample_at_the_window_start():
+    # The default window starts at t = 0.9 (k = 9); the record ends outside the band. x_k = 0
+    # is the limit x_k -> 0+: the measured rate ln(x_k / x_end) / w -> -inf, floored at one
+    # e-fold per horizon (1 s), so T_c = T_out + ln(0.5 / 0.01) s in both cases.
+    ts = jnp.linspace(0.0, 1.0, 11)
+    records = jnp.array([[0.5, 0.1, 0.001, 0, 0, 0, 0, 0, 0, x_k, 0.5] for x_k in (0.0, 1e-300)])
+    tol = 0.01
+    expected = float(time_outside(ts, records[0], tol)) + np.log(0.5 / tol)
+    reduced = [float(convergence_time(ts, x, tol)) for x in records]
+    np.testing.assert_allclose(reduced, expected, rtol=1e-12)
+    streamed, _ = _both_ways({"c": ConvergenceTime("e", tol)}, ts, {"e": records[..., None]})
+    np.testing.assert_allclose(np.asarray(streamed["c"]), expected, rtol=1e-12)
+    # No logarithm of 0 leaks into the backward pass.
+    grad = jax.grad(convergence_time, argnums=(1, 2))(ts, records[0], tol)
+    assert all(np.all(np.isfinite(np.asarray(g))) for g in grad)
+
+
+@pytest.mark.usefixtures("no_jaxtyping")
+@pytest.mark.parametrize(
+    ("make", "match"),
+    [
+        (
+            lambda: SettlingTime("e", jnp.array([1e-2, 5e-2, 1e-1])),
+            r"^SettlingTime: `tolerance` must be a scalar, got shape \(3,\)\.$",
+        ),
+        (lambda: TimeOutside("e", np.ones(2)), r"TimeOutside: `tolerance` must be a scalar"),
+        (lambda: ConvergenceTime("e", [1e-3, 1e-2]), r"ConvergenceTime: `tolerance` must be a"),
+        (lambda: ConvergenceTime("e", 1e-3, window=jnp.ones(3)), r"`window` must be a scalar"),
+        (lambda: SettlingTime("e", 0.0), r"SettlingTime: `tolerance` must be positive"),
+        (lambda: Chattering("u", 0.8, 0.2), r"^Chattering: `start` must be less than `end`"),
+        (lambda: Chattering("u", 0.5, 0.5), r"Chattering: `start` must be less than `end`"),
+        (lambda: Chattering("u", np.nan, 1.0), r"^Chattering: `start` must not be NaN"),
+        (lambda: Chattering("u", end=np.nan), r"^Chattering: `end` must not be NaN"),
+        (lambda: Chattering("u", jnp.zeros(2)), r"Chattering: `start` must be a scalar"),
+        (lambda: Chattering("u", "0.5"), r"Chattering: `start` must be a number"),
+    ],
+)
+def test_metric_objects_refuse_bad_tolerances_and_windows(make, match):
+    with pytest.raises(ValueError, match=match):
+        make()
+
+
+def test_chattering_accepts_infinite_window_ends():
+    whole = Chattering("u")
+    assert float(whole.start) == -np.inf and float(whole.end) == np.inf
+    assert float(Chattering("u", 1.0).start) == 1.0
+    assert float(Chattering("u", -np.inf, 2).end) == 2.0

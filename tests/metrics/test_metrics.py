@@ -8,7 +8,6 @@ import math
 
 import jax
 import jax.numpy as jnp
-import jaxtyping
 import numpy as np
 import pytest
 
@@ -62,20 +61,6 @@ def central_difference(f, p, h):
 
 def all_finite(tree):
     return all(bool(jnp.all(jnp.isfinite(leaf))) for leaf in jax.tree_util.tree_leaves(tree))
-
-
-@pytest.fixture
-def no_jaxtyping():
-    """Switch off the jaxtyping call-time checks so the library's own ValueErrors are reached.
-
-    (Under the test suite's import hook a wrong rank is already rejected by the annotation;
-    users without the hook see the ValueError tested here.)
-    """
-    jaxtyping.config.update("jaxtyping_disable", True)
-    try:
-        yield
-    finally:
-        jaxtyping.config.update("jaxtyping_disable", False)
 
 
 # ----------------------------------------------------------------------------- settling_time
@@ -387,6 +372,22 @@ def test_chattering_of_switching_signal_and_gradient(chattering_jit):
     assert float(g[1]) == 0.0 and float(g[2]) == 0.0
 
 
+def test_chattering_window_ends_tolerate_the_rounding_of_save_times(chattering_jit):
+    # Save times t0 + i dt: 0 + 70 * 0.01 = 0.7000000000000001, one ulp above t1 = 0.7, and
+    # 0 + 11 * 0.03 = 0.32999999999999996, one ulp below 0.33. Each record's only increment is
+    # in the interval touching that sample; a window with the bound at the intended time keeps it.
+    ts = 0.0 + jnp.arange(71) * 1e-2
+    assert float(ts[-1]) > 0.7
+    u = jnp.zeros((71, 1)).at[-1, 0].set(1.0)
+    assert float(chattering_jit(ts, u, 0.35, 0.7)) == 1.0
+    ts = 0.0 + jnp.arange(13) * 0.03
+    assert float(ts[11]) < 0.33
+    u = jnp.zeros((13, 1)).at[-1, 0].set(1.0)
+    assert float(chattering_jit(ts, u, 0.33, 0.36)) == 1.0
+    # A sample further off than a few ulps is still outside.
+    assert float(chattering_jit(ts, u, 0.33 + 1e-12, 0.36)) == 0.0
+
+
 # ----------------------------------------------------------------------------- peak, constraints
 
 
@@ -516,7 +517,35 @@ def test_float32_inputs_give_float32_outputs():
         (lambda: metrics.chattering(jnp.arange(4.0), jnp.ones((3, 2))), "`ts` and `u`"),
         (
             lambda: metrics.chattering(jnp.arange(4.0), jnp.ones((4, 2)), 3.0, 1.0),
-            "`t_start` must not exceed `t_end`",
+            r"chattering: `t_start` must be less than `t_end`, got t_start=3.0 and t_end=1.0\.",
+        ),
+        (
+            lambda: metrics.chattering(jnp.arange(4.0), jnp.ones((4, 2)), 1.0, 1.0),
+            "`t_start` must be less than `t_end`",
+        ),
+        (
+            lambda: metrics.chattering(jnp.arange(4.0), jnp.ones((4, 2)), math.nan, 1.0),
+            "chattering: `t_start` must not be NaN",
+        ),
+        (
+            lambda: metrics.chattering(jnp.arange(4.0), jnp.ones((4, 2)), None, math.nan),
+            "chattering: `t_end` must not be NaN",
+        ),
+        (
+            lambda: metrics.chattering(jnp.arange(4.0), jnp.ones((4, 2)), jnp.zeros(2), 1.0),
+            r"chattering: `t_start` must be a scalar, got shape \(2,\)",
+        ),
+        (
+            lambda: metrics.settling_time(jnp.arange(4.0), jnp.ones(4), jnp.ones(3)),
+            r"settling_time: `tol` must be a scalar, got shape \(3,\)\.",
+        ),
+        (
+            lambda: metrics.convergence_time(jnp.arange(4.0), jnp.ones(4), jnp.ones(3)),
+            r"convergence_time: `tol` must be a scalar, got shape \(3,\)\.",
+        ),
+        (
+            lambda: metrics.convergence_time(jnp.arange(4.0), jnp.ones(4), 0.1, jnp.ones(2)),
+            r"convergence_time: `window` must be a scalar, got shape \(2,\)\.",
         ),
         (lambda: metrics.peak(jnp.ones(3)), "peak: `u`"),
         (lambda: metrics.peak_per_axis(jnp.ones((2, 2, 2))), "peak_per_axis: `u`"),

@@ -37,11 +37,11 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float, PyTree
 
 from .._custom_types import RealScalarLike
-from .._validation import check_positive
+from .._validation import check, check_less_than, check_positive, check_scalar
 from ..numerics import amax, maximum, safe_norm
-from ._chattering import chattering
+from ._chattering import chattering, in_window
 from ._effort import control_effort
-from ._settling import convergence_time, settling_time, time_outside
+from ._settling import convergence_time, decay_extrapolation, settling_time, time_outside
 
 
 def _axes(axes, ndim: int) -> tuple[int, ...]:
@@ -204,7 +204,10 @@ class _AbstractBandTime(AbstractMetric):
 
     def __init__(self, signal: str, tolerance: RealScalarLike, norm: AbstractNorm | None = None):
         self.signal = str(signal)
-        self.tolerance = check_positive(type(self).__name__, "tolerance", tolerance)
+        where = type(self).__name__
+        self.tolerance = check_positive(
+            where, "tolerance", check_scalar(where, "tolerance", tolerance)
+        )
         self.norm = Euclidean() if norm is None else norm
 
     @abc.abstractmethod
@@ -226,7 +229,8 @@ class SettlingTime(_AbstractBandTime):
 
     **Arguments:**
     - `signal`: a signal name, e.g. `"attitude_error_vector"`.
-    - `tolerance`: the band, in the signal's unit.
+    - `tolerance`: the band, in the signal's unit: a positive scalar (one band for every
+      component; checked at construction).
     - `norm`: [`Euclidean`][]`()` (default), [`MaxAbs`][]`()`, [`Absolute`][]`()`, ...
     """
 
@@ -286,7 +290,7 @@ class ConvergenceTime(AbstractMetric):
     outside, the time the measured final decay still needs. The tuning objective's time.
 
     **Arguments:** as [`SettlingTime`][], and `window`: the span [s] over which the final decay
-    rate is measured (default: a tenth of the record).
+    rate is measured, a positive scalar (default: a tenth of the record).
     """
 
     is_time: ClassVar[bool] = True
@@ -305,10 +309,13 @@ class ConvergenceTime(AbstractMetric):
         window: RealScalarLike | None = None,
     ):
         self.signal = str(signal)
-        self.tolerance = check_positive("ConvergenceTime", "tolerance", tolerance)
+        where = "ConvergenceTime"
+        self.tolerance = check_positive(
+            where, "tolerance", check_scalar(where, "tolerance", tolerance)
+        )
         self.norm = Euclidean() if norm is None else norm
         if window is not None:
-            window = check_positive("ConvergenceTime", "window", window)
+            window = check_positive(where, "window", check_scalar(where, "window", window))
         self.window = window
 
     streams: ClassVar[bool] = True
@@ -351,22 +358,11 @@ class ConvergenceTime(AbstractMetric):
 
     def stream_value(self, state):
         t0, _, _, t_end, last, outside, _, x_k, t_k = state
-        dtype = outside.dtype
-        tol = self.tolerance
-        span = t_end - t_k
-        unsettled = _outside(last, tol)
-        finite = jnp.isfinite(last) & jnp.isfinite(x_k)
-        positive = finite & (last > 0) & (x_k > 0)
-        safe_last = jnp.where(positive, last, 1.0)
-        safe_first = jnp.where(positive, x_k, 1.0)
-        rate = (jnp.log(safe_first) - jnp.log(safe_last)) / span
-        rate = maximum(rate, 1 / (t_end - t0))
-        safe_unsettled = unsettled & positive
-        remaining = jnp.where(
-            safe_unsettled, jnp.log(jnp.where(safe_unsettled, safe_last, tol) / tol) / rate, 0.0
+        remaining, diverged = decay_extrapolation(
+            x_k, last, t_end - t_k, t_end - t0, self.tolerance
         )
         total = t0 + outside + remaining
-        return jnp.where(unsettled & ~finite, jnp.inf, total).astype(dtype)
+        return jnp.where(diverged, jnp.inf, total).astype(outside.dtype)
 
 
 class Peak(AbstractMetric):
@@ -457,9 +453,27 @@ class Effort(AbstractMetric):
         return total + 0.5 * (t_last - t_before) * power_last
 
 
+def _window_bound(name: str, value: RealScalarLike) -> Array:
+    """A window bound of [`Chattering`][]: a scalar of the default float dtype, not NaN."""
+    bound = check_scalar("Chattering", name, value).astype(jnp.result_type(float))
+    return check("Chattering", name, bound, lambda xp, x: ~xp.isnan(x), "must not be NaN")
+
+
 class Chattering(AbstractMetric):
     r"""Total variation of `signal` (default `"u"`) over $[t_{start}, t_{end}]$
-    ([`chattering`][]); NaN for a failed sample."""
+    ([`chattering`][]); NaN for a failed sample.
+
+    The sum runs over the sample intervals $[t_k, t_{k+1}]$ with $t_k \ge t_{start}$ and
+    $t_{k+1} \le t_{end}$, where a sample time within $8\,\varepsilon \max(1, |b|)$ seconds
+    of a bound $b$ counts as on it ($\varepsilon$ the machine epsilon of the times' dtype),
+    so a window ending at `t1` keeps the last interval of a record whose last save time
+    rounded to `t1 + 1 ulp`. The streaming form selects the same intervals.
+
+    **Arguments:**
+    - `signal`: a signal name (default `"u"`).
+    - `start`, `end`: the window [s], scalars, not NaN, `start < end` (infinite ends allowed:
+      the defaults take the whole record). Checked at construction.
+    """
 
     signal: str = eqx.field(static=True)
     start: Float[Array, ""]
@@ -472,8 +486,9 @@ class Chattering(AbstractMetric):
         end: RealScalarLike = float("inf"),
     ):
         self.signal = str(signal)
-        self.start = jnp.asarray(start, dtype=jnp.result_type(float))
-        self.end = jnp.asarray(end, dtype=jnp.result_type(float))
+        self.start = _window_bound("start", start)
+        self.end = _window_bound("end", end)
+        check_less_than("Chattering", "start", self.start, "end", self.end)
 
     streams: ClassVar[bool] = True
 
@@ -488,7 +503,7 @@ class Chattering(AbstractMetric):
     def stream_update(self, state, t, signals):
         t_prev, u_prev, total = state
         u = _sample(signals, self.signal).reshape(-1)
-        inside = (t_prev >= self.start) & (t <= self.end)
+        inside = in_window(t_prev, t, self.start, self.end)
         step = jnp.where(inside, jnp.sum(jnp.abs(u - u_prev)), 0.0)
         return t, u, (total + step).astype(total.dtype)
 

@@ -11,9 +11,15 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float, Real
 
 from .._custom_types import BoolScalar, RealScalarLike, Scalar
-from .._validation import check_positive
+from .._validation import check_positive, check_scalar
 from ..numerics import maximum
 from ._signals import as_signal, as_times, trapezoid
+
+
+def _positive_scalar(where: str, name: str, value: RealScalarLike) -> Array:
+    """A positive scalar (a band or a span): a shape `(3,)` band would broadcast against the
+    samples and fail deep inside the computation, or silently give one result per entry."""
+    return check_positive(where, name, check_scalar(where, name, value))
 
 
 def _last_above(x: Array, tol: Array) -> tuple[Array, Array]:
@@ -70,7 +76,7 @@ def settling_time(
     - `ts`: sample times [s], shape `(T,)`, non-decreasing.
     - `x`: non-negative magnitude, shape `(T,)`, e.g. `safe_norm(sigma_e, axis=-1)` of an attitude
       error (any unit; the same unit as `tol`).
-    - `tol`: band half-width, positive, in the unit of `x`.
+    - `tol`: band half-width, a positive scalar, in the unit of `x`.
 
     **Returns:** the settling time [s] as a scalar array, in the interval `[ts[0], ts[-1]]` or
     `inf`.
@@ -86,7 +92,7 @@ def settling_time(
     where = "settling_time"
     x = as_signal(where, "x", x, 1, " Pass a norm, e.g. jaxatt.numerics.safe_norm(e, axis=-1).")
     ts = as_times(where, ts, "x", x)
-    tol = check_positive(where, "tol", tol)
+    tol = _positive_scalar(where, "tol", tol)
     return _settling_time(ts, x, tol)
 
 
@@ -104,7 +110,7 @@ def settled(
     where = "settled"
     x = as_signal(where, "x", x, 1, " Pass a norm, e.g. jaxatt.numerics.safe_norm(e, axis=-1).")
     as_times(where, ts, "x", x)
-    tol = check_positive(where, "tol", tol)
+    tol = _positive_scalar(where, "tol", tol)
     return x[-1] <= tol
 
 
@@ -160,8 +166,8 @@ def soft_settling_time(
     where = "soft_settling_time"
     x = as_signal(where, "x", x, 1, " Pass a norm, e.g. jaxatt.numerics.safe_norm(e, axis=-1).")
     ts = as_times(where, ts, "x", x)
-    tol = check_positive(where, "tol", tol)
-    width = check_positive(where, "width", width)
+    tol = _positive_scalar(where, "tol", tol)
+    width = _positive_scalar(where, "width", width)
     return _soft_settling_time(ts, x, tol, width)
 
 
@@ -254,8 +260,29 @@ def time_outside(
     where = "time_outside"
     x = as_signal(where, "x", x, 1, " Pass a norm, e.g. jaxatt.numerics.safe_norm(e, axis=-1).")
     ts = as_times(where, ts, "x", x)
-    tol = check_positive(where, "tol", tol)
+    tol = _positive_scalar(where, "tol", tol)
     return _time_outside(ts, x, tol)
+
+
+def decay_extrapolation(x_k, last, span, horizon, tol) -> tuple[Array, Array]:
+    r"""The time [s] the final decay still needs, $\ln(x_{T-1}/\mathrm{tol})/\hat\lambda$ (0 when
+    settled), and whether the run diverged (unsettled with a non-finite $x_k$ or $x_{T-1}$).
+
+    $\hat\lambda = \max((\ln x_k - \ln x_{T-1})/\mathrm{span}, 1/\mathrm{horizon})$; a sample
+    $x_k \le 0$ counts as $\ln x_k = -\infty$, the floored rate (the limit $x_k \to 0^+$), so
+    the result is continuous there. Double where: no logarithm of 0 enters the graph.
+    """
+    unsettled = ~(last <= tol)
+    finite = jnp.isfinite(last) & jnp.isfinite(x_k)
+    measured = finite & (last > 0) & (x_k > 0)
+    safe_last = jnp.where(measured, last, 1.0)
+    safe_first = jnp.where(measured, x_k, 1.0)
+    rate = jnp.where(measured, (jnp.log(safe_first) - jnp.log(safe_last)) / span, -jnp.inf)
+    rate = maximum(rate, 1 / horizon)
+    extrapolate = unsettled & finite  # then last > tol > 0
+    ratio = jnp.where(extrapolate, last, tol) / tol
+    remaining = jnp.where(extrapolate, jnp.log(ratio) / rate, 0.0)
+    return remaining, unsettled & ~finite
 
 
 @jax.jit
@@ -268,20 +295,9 @@ def _convergence_time(ts: Array, x: Array, tol: Array, window: Array) -> Array:
     k = jnp.argmin(jnp.abs(ts - (t_end - window)))
     k = jax.lax.stop_gradient(jnp.minimum(k, ts.shape[0] - 2))
     span = t_end - ts[k]
-    unsettled = ~(last <= tol)
-    finite = jnp.isfinite(last) & jnp.isfinite(x[k])
-    positive = finite & (last > 0) & (x[k] > 0)
-    safe_last = jnp.where(positive, last, 1.0)
-    safe_first = jnp.where(positive, x[k], 1.0)
-    rate = (jnp.log(safe_first) - jnp.log(safe_last)) / span
-    horizon = t_end - ts[0]
-    rate = maximum(rate, 1 / horizon)
-    safe_unsettled = unsettled & positive
-    remaining = jnp.where(
-        safe_unsettled, jnp.log(jnp.where(safe_unsettled, safe_last, tol) / tol) / rate, 0.0
-    )
+    remaining, diverged = decay_extrapolation(x[k], last, span, t_end - ts[0], tol)
     total = ts[0] + outside + remaining
-    return jnp.where(unsettled & ~finite, jnp.inf, total).astype(dtype)
+    return jnp.where(diverged, jnp.inf, total).astype(dtype)
 
 
 def convergence_time(
@@ -304,9 +320,11 @@ def convergence_time(
     jumping the result. A signal still outside at the end of the record gets the time it
     would need at the decay rate $\hat\lambda$ measured over its last `window` $w$ seconds
     (exact for an exponential tail), floored at one e-fold per horizon so that a signal that
-    does not decay still gets a finite penalty. $T_c$ is continuous across the
-    settled/unsettled boundary (the extrapolation vanishes at $x = \mathrm{tol}$) and
-    differentiable almost everywhere in the samples and `tol`.
+    does not decay still gets a finite penalty; a sample $x(t_{T-1} - w) \le 0$ counts as
+    $\ln x = -\infty$ (its limit from above), i.e. takes the floored rate, so $T_c$ is
+    continuous there too. $T_c$ is continuous across the settled/unsettled boundary (the
+    extrapolation vanishes at $x = \mathrm{tol}$) and differentiable almost everywhere in the
+    samples and `tol`.
 
     A non-finite last sample (a diverged run) gives `inf`.
 
@@ -322,8 +340,8 @@ def convergence_time(
     ts = as_times(where, ts, "x", x)
     if x.shape[0] < 2:
         raise ValueError(f"{where}: `x` must hold at least two samples, got {x.shape[0]}.")
-    tol = check_positive(where, "tol", tol)
+    tol = _positive_scalar(where, "tol", tol)
     if window is None:
         window = 0.1 * (ts[-1] - ts[0])
-    window = check_positive(where, "window", window)
+    window = _positive_scalar(where, "window", window)
     return _convergence_time(ts, x, tol, window)
