@@ -41,7 +41,8 @@ def materialized(tree: PyTree, t: ArrayLike) -> PyTree:
     float64, 2-core AVX-512 CPU, with the 512-bit vectors of the scalarized loop's default;
     benchmarks/README.md, "Materialized tracking errors"):
     - the default Monte Carlo call: 1.16-1.20x the hand scan at 1000 samples (0.97-1.00x
-      before) and 1.34-1.37x at 10 000 (1.28-1.29x);
+      before); at 10 000, 1.34-1.39x against 1.28-1.36x before, within the noise of the two
+      scripts (`bench_defaults.py`: 1.36x both);
     - the plain program at 300 samples: 1.07-1.14x faster;
     - the demo's 32-sample tuning gradient: 1.14x faster.
 

@@ -5,8 +5,10 @@ batched with `jax.vmap` outside `simulate`. Batched this way, every small array 
 `(batch, n)` array with its components interleaved in memory, and XLA:CPU lowers the many
 slices, stacks, `dot`s and reductions of one closed-loop step to dozens of kernels that
 shuffle those components around. The same equations written as arithmetic on `(batch,)`
-arrays, one per component (a struct of arrays), compile to a few fused elementwise loops and
-ran 5-10x faster on a 2-core CPU (benchmarks/README.md).
+arrays, one per component (a struct of arrays), compile to a few fused elementwise loops. A
+hand-written scan in that layout ran 1.8-2.7x faster than the vmapped Chen M1 program at
+1000-10^4 samples (2026-12-01) and 5.5x faster than the vmapped rigid-body PD loop at 10^4
+(2026-12-05; within 1.4x below 1000 samples) on a 2-core CPU (benchmarks/README.md).
 
 [`scalarize`][] gets that layout automatically. It traces the function to a jaxpr and
 re-evaluates it with every small array held as a NumPy object array of *scalar* JAX values:
