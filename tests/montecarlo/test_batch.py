@@ -457,6 +457,8 @@ def test_monte_carlo_configuration_errors(pd_batch):
         _check_metrics("monte_carlo", {"u": lambda traj: traj.signals["u"][-1]})
     with pytest.raises(ValueError, match="`x0s.omega` must be finite"):
         run(x0s=eqx.tree_at(lambda x: x.omega, x0s, x0s.omega.at[2, 0].set(jnp.nan)))
+    with pytest.raises(ValueError, match="`x0s.sigma` is float32 but the closed loop computes"):
+        run(x0s=jax.tree.map(lambda x: x.astype(jnp.float32), x0s))
     with pytest.raises(ValueError, match="batch_field: `values` must be finite"):
         mc.batch_field(loop, "plant.body.inertia", jnp.full((6, 3, 3), jnp.nan))
 

@@ -396,6 +396,20 @@ def test_float32_runs_stay_float32():
     assert traj.ts.dtype == jnp.float32
 
 
+def test_initial_state_in_another_precision_than_the_loop_is_refused():
+    # Regression: a float32 state (or one float32 leaf) in a float64 loop failed deep inside the
+    # time loop with "scan body function carry input and carry output must have equal types".
+    loop, x0 = mrp_pd_loop(), mrp_x0()
+    x32 = MRPState(jnp.asarray(x0.sigma, jnp.float32), jnp.asarray(x0.omega, jnp.float32))
+    with pytest.raises(ValueError, match=r"`x0.sigma` is float32 but the closed loop computes in"):
+        jaxatt.simulate(loop, x32, 0.0, 0.1, dt=0.05)
+    mixed = MRPState(x0.sigma, jnp.zeros(3, jnp.float32))
+    with pytest.raises(ValueError, match=r"`x0.omega` is float32 .* in one precision"):
+        jaxatt.simulate(loop, mixed, 0.0, 0.1, dt=0.05)
+    # Arrays of JAX's default float pass.
+    loop.check_state(MRPState(jnp.array([0.1, 0.0, 0.0]), jnp.zeros(3)))
+
+
 class _FlagsLargeRates(AbstractController):
     """A PD law that declares |omega_i| >= 0.05 inadmissible (a test-only probe)."""
 
