@@ -1,5 +1,6 @@
 """`simulate`: accuracy against SciPy, batching, compilation, sampling, errors."""
 
+import re
 from typing import ClassVar
 
 import equinox as eqx
@@ -359,6 +360,15 @@ def test_non_unit_initial_quaternion_raises():
             "NormRobustTerm: `sigma` must be a scalar",
         ),
         (lambda: ZeroOrderHold(0.0), "`period` must be positive"),
+        # Regression: limits of more than one dimension failed inside the trace naming nothing.
+        (
+            lambda: Saturation(30.0 * jnp.ones((3, 3))),
+            "Saturation: `limit` must be a scalar or a 1-D array",
+        ),
+        (
+            lambda: jaxatt.simulation.FirstOrderLag(jnp.ones((3, 1))),
+            "FirstOrderLag: `time_constant` must be a scalar or a 1-D array",
+        ),
         (
             lambda: ClosedLoop(mrp_pd_loop().plant, QuaternionPD(1.0, 1.0)),
             "QuaternionPD reads QuaternionState measurements, but the plant measures MRPState",
@@ -369,6 +379,35 @@ def test_bad_controller_configuration_raises(build, needle):
     with pytest.raises(ValueError) as info:
         build()
     assert needle in str(info.value)
+
+
+def test_norm_saturation_needs_a_scalar():
+    # Regression: a per-axis max_norm ran and turned the torque's direction. (The annotation
+    # says it too, so runtime type checking, on in this suite, would reject the call itself;
+    # without it the check below catches the mistake.)
+    from jaxatt.simulation._actuators import _check_scalar
+
+    with pytest.raises(ValueError, match=re.escape("`max_norm` must be a scalar, got shape (3,)")):
+        _check_scalar("NormSaturation", "max_norm", jnp.array([1.0, 5.0, 9.0]))
+
+
+@pytest.mark.parametrize(
+    "actuator, needle",
+    [
+        (Saturation(jnp.array([30.0, 30.0])), "Saturation: `limit` has shape (2,)"),
+        (
+            jaxatt.simulation.FirstOrderLag(jnp.array([0.1, 0.1])),
+            "FirstOrderLag: `time_constant` has shape (2,)",
+        ),
+    ],
+)
+def test_per_axis_actuator_values_must_match_the_command(actuator, needle):
+    # Regression: a per-axis limit of the wrong length failed with a broadcasting error deep
+    # in the trace. The command's shape is known when the loop is traced, before compiling.
+    loop = mrp_pd_loop()
+    loop = ClosedLoop(loop.plant, loop.controller, actuator=actuator)
+    with pytest.raises(ValueError, match=re.escape(needle + " (one value per axis) but the")):
+        jaxatt.simulate(loop, mrp_x0(), 0.0, 0.1, dt=0.05)
 
 
 def test_jit_of_simulate_equals_eager_call():
