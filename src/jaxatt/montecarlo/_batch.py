@@ -451,6 +451,18 @@ def _leading_size(where: str, name: str, tree: PyTree) -> int | None:
     return shapes[0][0]
 
 
+def check_batch_states(
+    where: str, closed_loop: AbstractClosedLoop, x0s: PyTree, name: str = "x0s"
+) -> tuple[PyTree, int]:
+    """The checked batch of initial states and its size: a non-empty leading axis shared by
+    every array, and the closed loop's state checks (unit quaternions, finite values, one
+    precision) on every sample. For the entry points that call [`run_batch`][] directly."""
+    n = _leading_size(where, name, x0s)
+    if n is None or n == 0:
+        raise ValueError(f"{where}: `{name}` must be a non-empty batch of initial states.")
+    return closed_loop.check_state(x0s, name, (n,)), n
+
+
 def _loop_filter(loop_axes: PyTree, closed_loop: AbstractClosedLoop) -> PyTree[bool]:
     def expand(axis, subtree):
         if axis is not None and not (isinstance(axis, int) and axis == 0):
@@ -598,10 +610,7 @@ def monte_carlo(
     metrics = _check_metrics(where, metrics)
     if batch_size is not None:
         batch_size = _check_positive_int("batch_size", batch_size)
-    n = _leading_size(where, "x0s", x0s)
-    if n is None or n == 0:
-        raise ValueError(f"{where}: `x0s` must be a non-empty batch of initial states.")
-    x0s = closed_loop.check_state(x0s, "x0s", (n,))
+    x0s, n = check_batch_states(where, closed_loop, x0s)
     batched, loop = split_batched_fields(where, closed_loop, loop_axes, n)
     devices = jax.devices() if shard else []
     at_once = samples_at_once(n, batch_size=batch_size, devices=max(1, len(devices)))
