@@ -478,6 +478,32 @@ def test_batch_field_in_axes():
         mc.batch_field(loop, lambda m: m.plant.body.disturbance, jnp.ones((3, 3)))
 
 
+def test_batch_field_checks_every_sample_like_the_owners_constructor():
+    # Regression: only finiteness was checked, so a negative gain or an indefinite inertia ran
+    # and gave plausible metrics although the constructors refuse them.
+    loop = mrp_pd_loop()
+    with pytest.raises(
+        ValueError, match=r"values\[1\] for `controller.k1` .*`k1` must be positive"
+    ):
+        mc.batch_field(loop, "controller.k1", jnp.array([60.0, -60.0]))
+    with pytest.raises(
+        ValueError, match=r"values\[2\] for `controller.k2` .*`k2` must be positive"
+    ):
+        mc.batch_field(loop, lambda m: m.controller.k2, jnp.array([1.0, 2.0, 0.0]))
+    indefinite = jnp.stack([loop.plant.body.inertia, jnp.diag(jnp.array([20.0, -17.0, 15.0]))])
+    with pytest.raises(ValueError, match=r"values\[1\] for `plant.body.inertia` .*positive-def"):
+        mc.batch_field(loop, "plant.body.inertia", indefinite)
+    # A cross-field rule: the perturbed inertia J0 + dJ(0) must stay positive definite.
+    perturbations = mc.sinusoid_dispersion(
+        jr.key(0), 2, loop.plant.body.inertia_perturbation, amplitude_scale=0.1, phase_spread=0.1
+    )
+    bad = eqx.tree_at(lambda s: s.offset, perturbations, perturbations.offset.at[1].add(-100.0))
+    with pytest.raises(ValueError, match=r"values\[1\] for `plant.body.inertia_perturbation`"):
+        mc.batch_field(loop, lambda m: m.plant.body.inertia_perturbation, bad)
+    batched, _ = mc.batch_field(loop, "controller.k1", jnp.array([60.0, 70.0]))
+    assert batched.controller.k1.shape == (2,)
+
+
 def test_monte_carlo_configuration_errors(pd_batch):
     loop, x0s = pd_batch
     run = lambda **kw: mc.monte_carlo(
@@ -512,6 +538,8 @@ def test_monte_carlo_configuration_errors(pd_batch):
         _check_metrics("monte_carlo", {"u": lambda traj: traj.signals["u"][-1]})
     with pytest.raises(ValueError, match="`x0s.omega` must be finite"):
         run(x0s=eqx.tree_at(lambda x: x.omega, x0s, x0s.omega.at[2, 0].set(jnp.nan)))
+    with pytest.raises(ValueError, match="`x0s.sigma` is float32 but the closed loop computes"):
+        run(x0s=jax.tree.map(lambda x: x.astype(jnp.float32), x0s))
     with pytest.raises(ValueError, match="batch_field: `values` must be finite"):
         mc.batch_field(loop, "plant.body.inertia", jnp.full((6, 3, 3), jnp.nan))
 

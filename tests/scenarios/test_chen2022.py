@@ -167,3 +167,15 @@ def test_gradients_wrt_reaching_gains_match_finite_differences():
                 analytic,
                 numeric,
             )
+
+
+def test_simulate_cases_checks_the_states_first():
+    # Regression: simulate_cases called the batch runner directly, so non-unit quaternions ran.
+    from jaxatt.plants import QuaternionState
+
+    loop = chen.build("M1")
+    q = jnp.array([[1.0, 0.5, 0.0, 0.0], [0.5, 0.0, 0.0, 0.0]])
+    with pytest.raises(ValueError, match="`x0s.q` must hold unit quaternions"):
+        chen.simulate_cases(loop, QuaternionState(q, jnp.zeros((2, 3))), 0.2, 1e-2)
+    with pytest.raises(ValueError, match="simulate_cases: every array in `x0s`"):
+        chen.simulate_cases(loop, chen.initial_state("D1"), 0.2, 1e-2)

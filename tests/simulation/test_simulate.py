@@ -1,5 +1,6 @@
 """`simulate`: accuracy against SciPy, batching, compilation, sampling, errors."""
 
+import re
 from typing import ClassVar
 
 import equinox as eqx
@@ -359,6 +360,15 @@ def test_non_unit_initial_quaternion_raises():
             "NormRobustTerm: `sigma` must be a scalar",
         ),
         (lambda: ZeroOrderHold(0.0), "`period` must be positive"),
+        # Regression: limits of more than one dimension failed inside the trace naming nothing.
+        (
+            lambda: Saturation(30.0 * jnp.ones((3, 3))),
+            "Saturation: `limit` must be a scalar or a 1-D array",
+        ),
+        (
+            lambda: jaxatt.simulation.FirstOrderLag(jnp.ones((3, 1))),
+            "FirstOrderLag: `time_constant` must be a scalar or a 1-D array",
+        ),
         (
             lambda: ClosedLoop(mrp_pd_loop().plant, QuaternionPD(1.0, 1.0)),
             "QuaternionPD reads QuaternionState measurements, but the plant measures MRPState",
@@ -369,6 +379,35 @@ def test_bad_controller_configuration_raises(build, needle):
     with pytest.raises(ValueError) as info:
         build()
     assert needle in str(info.value)
+
+
+def test_norm_saturation_needs_a_scalar():
+    # Regression: a per-axis max_norm ran and turned the torque's direction. (The annotation
+    # says it too, so runtime type checking, on in this suite, would reject the call itself;
+    # without it the check below catches the mistake.)
+    from jaxatt.simulation._actuators import _check_scalar
+
+    with pytest.raises(ValueError, match=re.escape("`max_norm` must be a scalar, got shape (3,)")):
+        _check_scalar("NormSaturation", "max_norm", jnp.array([1.0, 5.0, 9.0]))
+
+
+@pytest.mark.parametrize(
+    "actuator, needle",
+    [
+        (Saturation(jnp.array([30.0, 30.0])), "Saturation: `limit` has shape (2,)"),
+        (
+            jaxatt.simulation.FirstOrderLag(jnp.array([0.1, 0.1])),
+            "FirstOrderLag: `time_constant` has shape (2,)",
+        ),
+    ],
+)
+def test_per_axis_actuator_values_must_match_the_command(actuator, needle):
+    # Regression: a per-axis limit of the wrong length failed with a broadcasting error deep
+    # in the trace. The command's shape is known when the loop is traced, before compiling.
+    loop = mrp_pd_loop()
+    loop = ClosedLoop(loop.plant, loop.controller, actuator=actuator)
+    with pytest.raises(ValueError, match=re.escape(needle + " (one value per axis) but the")):
+        jaxatt.simulate(loop, mrp_x0(), 0.0, 0.1, dt=0.05)
 
 
 def test_jit_of_simulate_equals_eager_call():
@@ -394,6 +433,20 @@ def test_float32_runs_stay_float32():
     assert traj.plant_states.sigma.dtype == jnp.float32
     assert traj.signals["u"].dtype == jnp.float32
     assert traj.ts.dtype == jnp.float32
+
+
+def test_initial_state_in_another_precision_than_the_loop_is_refused():
+    # Regression: a float32 state (or one float32 leaf) in a float64 loop failed deep inside the
+    # time loop with "scan body function carry input and carry output must have equal types".
+    loop, x0 = mrp_pd_loop(), mrp_x0()
+    x32 = MRPState(jnp.asarray(x0.sigma, jnp.float32), jnp.asarray(x0.omega, jnp.float32))
+    with pytest.raises(ValueError, match=r"`x0.sigma` is float32 but the closed loop computes in"):
+        jaxatt.simulate(loop, x32, 0.0, 0.1, dt=0.05)
+    mixed = MRPState(x0.sigma, jnp.zeros(3, jnp.float32))
+    with pytest.raises(ValueError, match=r"`x0.omega` is float32 .* in one precision"):
+        jaxatt.simulate(loop, mixed, 0.0, 0.1, dt=0.05)
+    # Arrays of JAX's default float pass.
+    loop.check_state(MRPState(jnp.array([0.1, 0.0, 0.0]), jnp.zeros(3)))
 
 
 class _FlagsLargeRates(AbstractController):

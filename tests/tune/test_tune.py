@@ -1,5 +1,7 @@
 """Tuning: transforms, configuration errors, gradient check, checkpoint/resume."""
 
+import re
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -39,6 +41,30 @@ def test_nearest_odd_ratio():
     assert p % 2 == 1 and q % 2 == 1 and abs(p / q - 0.6129) < 2e-3
     with pytest.raises(ValueError, match="`value` must be positive"):
         tune.nearest_odd_ratio(-1.0)
+
+
+@pytest.mark.parametrize(
+    "build, needle",
+    [
+        # Regression: infinite bounds were accepted and made the starting gain NaN.
+        (lambda: tune.Interval(0.0, float("inf")), "Interval: `high` must be finite"),
+        (lambda: tune.Interval(float("-inf"), 100.0), "Interval: `low` must be finite"),
+        (lambda: tune.GreaterThan(float("-inf")), "GreaterThan: `low` must be finite"),
+        (lambda: tune.GreaterThan(float("nan")), "GreaterThan: `low` must be finite"),
+        (lambda: tune.Interval(float("nan"), 1.0), "Interval: `low` must be finite"),
+        (lambda: tune.Interval(1.0, 1.0), "Interval: `high` must exceed `low`"),
+    ],
+)
+def test_transform_bounds_must_be_finite_numbers(build, needle):
+    with pytest.raises(ValueError, match=re.escape(needle)):
+        build()
+    # (The annotation says it too, so runtime type checking, on in this suite, would reject the
+    # call itself; without it the check below catches the mistake.)
+    from jaxatt.tune._transforms import _check_bound
+
+    with pytest.raises(ValueError, match="GreaterThan: `low` must be a real number"):
+        _check_bound("GreaterThan", "low", "0")
+    assert _check_bound("Interval", "high", np.float32(2)) == 2.0
 
 
 # Four of the Chen tuning problem's parameters: paths, so every test's parameters are equal

@@ -9,6 +9,7 @@ Monte Carlo study with the same settings therefore run (and differentiate) the s
 same values.
 """
 
+import inspect
 import numbers
 from collections.abc import Callable, Mapping
 
@@ -21,7 +22,7 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from jaxtyping import Array, ArrayLike, PyTree
 
-from .._paths import path_selector
+from .._paths import parse_path, path_selector
 from .._validation import check_tree_finite
 from ..metrics import AbstractMetric
 from ..simulation import (
@@ -222,6 +223,142 @@ def _select(where) -> Callable:
     return path_selector(where)
 
 
+class _Path:
+    """A leaf standing for the path to a leaf of the module (not a pytree itself)."""
+
+    def __init__(self, keys):
+        self.keys = keys
+
+
+def _steps_from_keys(keys) -> tuple[tuple[str, object], ...]:
+    steps = []
+    for key in keys:
+        if isinstance(key, jtu.GetAttrKey):
+            steps.append(("attr", key.name))
+        elif isinstance(key, jtu.SequenceKey):
+            steps.append(("item", key.idx))
+        elif isinstance(key, jtu.DictKey):
+            steps.append(("item", key.key))
+        else:
+            return None
+    return tuple(steps)
+
+
+def _field_steps(module: PyTree, where) -> tuple[tuple[str, object], ...] | None:
+    """The steps from `module` to the field `where` selects, or `None` if they cannot be found."""
+    if isinstance(where, str):
+        return parse_path(where)
+    try:
+        keyed = jtu.tree_map_with_path(lambda keys, _: _Path(keys), module)
+        selected = where(keyed)
+    except Exception:
+        return None
+    if isinstance(selected, _Path):
+        return _steps_from_keys(selected.keys)
+    inner = jtu.tree_flatten_with_path(selected, is_leaf=lambda x: isinstance(x, _Path))[0]
+    if not inner or not isinstance(inner[0][1], _Path):
+        return None
+    relative, leaf = inner[0]
+    return _steps_from_keys(leaf.keys[: len(leaf.keys) - len(relative)])
+
+
+def _path_text(steps) -> str:
+    text = ""
+    for kind, key in steps:
+        text += f".{key}" if kind == "attr" else f"[{key!r}]"
+    return text.lstrip(".")
+
+
+def _constructor_fields(module: eqx.Module) -> tuple[str, ...] | None:
+    """The names of `module`'s constructor arguments if `type(module)(**fields)` rebuilds it
+    exactly (the arguments are fields and the round trip gives an equal module), else `None`."""
+    try:
+        parameters = list(inspect.signature(type(module).__init__).parameters.values())[1:]
+    except (TypeError, ValueError):
+        return None
+    names = []
+    for parameter in parameters:
+        if parameter.kind is inspect.Parameter.VAR_KEYWORD:
+            continue
+        if parameter.kind is inspect.Parameter.VAR_POSITIONAL:
+            return None
+        if parameter.name not in getattr(module, "__dataclass_fields__", {}):
+            return None
+        names.append(parameter.name)
+    try:
+        rebuilt = type(module)(**{name: getattr(module, name) for name in names})
+        same = bool(eqx.tree_equal(rebuilt, module))
+    except Exception:
+        return None
+    return tuple(names) if same else None
+
+
+class _Rebuilder:
+    """Re-runs the constructors of the modules that own (or lie inside) a replaced field."""
+
+    def __init__(self):
+        self._fields: dict[int, tuple[str, ...] | None] = {}
+
+    def fields(self, module: eqx.Module, cache_key) -> tuple[str, ...] | None:
+        if cache_key not in self._fields:
+            self._fields[cache_key] = _constructor_fields(module)
+        return self._fields[cache_key]
+
+    def subtree(self, node, trail=()):
+        """`node` with every module inside it rebuilt through its constructor, bottom-up."""
+        if isinstance(node, eqx.Module):
+            names = self.fields(node, ("in", trail))
+            if names is None:
+                return node
+            return type(node)(
+                **{name: self.subtree(getattr(node, name), (*trail, name)) for name in names}
+            )
+        if isinstance(node, (list, tuple)) and not hasattr(node, "_fields"):
+            return type(node)(self.subtree(x, (*trail, i)) for i, x in enumerate(node))
+        if isinstance(node, dict):
+            return {k: self.subtree(v, (*trail, k)) for k, v in node.items()}
+        return node
+
+    def replace(self, node, steps, new, depth=0):
+        """`node` with the field at `steps` replaced by `new`, rebuilding the modules on the way
+        (their constructors check the new value, and cross-field rules, again)."""
+        if depth == len(steps):
+            return self.subtree(new)
+        kind, key = steps[depth]
+        child = getattr(node, key) if kind == "attr" else node[key]
+        child = self.replace(child, steps, new, depth + 1)
+        if isinstance(node, eqx.Module):
+            names = self.fields(node, ("on", depth))
+            if names is not None and kind == "attr" and key in names:
+                return type(node)(**{n: child if n == key else getattr(node, n) for n in names})
+            return eqx.tree_at(lambda m: getattr(m, key) if kind == "attr" else m[key], node, child)
+        if isinstance(node, dict):
+            return {**node, key: child}
+        items = list(node)
+        items[key] = child
+        return type(node)(items)
+
+
+def _check_batch_samples(module: PyTree, where, values: PyTree, size: int) -> None:
+    """Refuse the first sample that the constructors of the modules owning the field refuse."""
+    if any_traced((module, values)):
+        return  # traced values: the constructors' own traced checks apply at run time
+    steps = _field_steps(module, where)
+    if not steps:
+        return
+    path = where if isinstance(where, str) else _path_text(steps)
+    host = jtu.tree_map(np.asarray, values)
+    rebuilder = _Rebuilder()
+    for i in range(size):
+        sample = jtu.tree_map(lambda x: x[i], host)
+        try:
+            rebuilder.replace(module, steps, sample)
+        except (ValueError, TypeError) as error:
+            raise ValueError(
+                f"batch_field: values[{i}] for `{path}` is refused by its owner: {error}"
+            ) from None
+
+
 def batch_field(
     module: PyTree,
     where: Callable[[PyTree], PyTree] | str,
@@ -236,7 +373,8 @@ def batch_field(
       `lambda loop: loop.plant.body.inertia`), or its dotted path (`"plant.body.inertia"`).
     - `values`: the batch: an array with a leading axis of length `n` and otherwise the shape
       of the field it replaces, or a pytree whose leaves all have leading axis `n` (e.g. the
-      `Sinusoid` from [`sinusoid_dispersion`][]). Must be finite.
+      `Sinusoid` from [`sinusoid_dispersion`][]). Must be finite, and every sample must pass
+      the checks of the modules that own the field (see below).
     - `in_axes`: the `in_axes` returned by a previous call, to batch several fields; `None`
       for the first call.
 
@@ -244,6 +382,17 @@ def batch_field(
     of the module's structure with `0` at the batched fields and `None` elsewhere, for
     `jax.vmap`/`eqx.filter_vmap` (`in_axes=(in_axes, ...)`) or
     [`monte_carlo`][]`(..., loop_axes=in_axes)`.
+
+    **Checks:** each sample is checked on the host, before anything is compiled, by the
+    constructors that checked the field it replaces: the modules on the path to the field (and
+    inside `values`, e.g. a `Sinusoid`) are rebuilt from their fields with sample $k$ in place,
+    so `values[k]` meets the same rules as a module built with it (a gain must be positive, an
+    inertia positive definite, ...). A refused sample raises a `ValueError` naming $k$, the
+    field's path and the rule. A module whose constructor cannot rebuild it from its own fields
+    (its arguments are not its fields, e.g. `RigidBodyMRP`, whose `body` is rebuilt instead) is
+    left unchecked; with traced `values` the constructors' traced checks are not run either.
+    The checks cost one constructor call per sample and module on the path (from well under a
+    millisecond for a gain to about 10 ms for a `RigidBody`, which evaluates its signals).
 
     !!! example
         ```python
@@ -291,6 +440,7 @@ def batch_field(
                 f"({type(old).__name__}), got {type(values).__name__}."
             )
     check_tree_finite("batch_field", "values", values)
+    _check_batch_samples(module, where, values, sizes.pop())
     batched = eqx.tree_at(where, module, values)
     in_axes = eqx.tree_at(where, in_axes, 0, is_leaf=_is_none)
     return batched, in_axes
@@ -307,6 +457,18 @@ def _leading_size(where: str, name: str, tree: PyTree) -> int | None:
             f"shapes {shapes}."
         )
     return shapes[0][0]
+
+
+def check_batch_states(
+    where: str, closed_loop: AbstractClosedLoop, x0s: PyTree, name: str = "x0s"
+) -> tuple[PyTree, int]:
+    """The checked batch of initial states and its size: a non-empty leading axis shared by
+    every array, and the closed loop's state checks (unit quaternions, finite values, one
+    precision) on every sample. For the entry points that call [`run_batch`][] directly."""
+    n = _leading_size(where, name, x0s)
+    if n is None or n == 0:
+        raise ValueError(f"{where}: `{name}` must be a non-empty batch of initial states.")
+    return closed_loop.check_state(x0s, name, (n,)), n
 
 
 def _loop_filter(loop_axes: PyTree, closed_loop: AbstractClosedLoop) -> PyTree[bool]:
@@ -456,10 +618,7 @@ def monte_carlo(
     metrics = _check_metrics(where, metrics)
     if batch_size is not None:
         batch_size = _check_positive_int("batch_size", batch_size)
-    n = _leading_size(where, "x0s", x0s)
-    if n is None or n == 0:
-        raise ValueError(f"{where}: `x0s` must be a non-empty batch of initial states.")
-    x0s = closed_loop.check_state(x0s, "x0s", (n,))
+    x0s, n = check_batch_states(where, closed_loop, x0s)
     batched, loop = split_batched_fields(where, closed_loop, loop_axes, n)
     devices = jax.devices() if shard else []
     at_once = samples_at_once(n, batch_size=batch_size, devices=max(1, len(devices)))

@@ -38,6 +38,7 @@ import numpy as np
 from ..controllers import NormRobustTerm, SlidingModeTracking
 from ..metrics import chattering, control_effort, peak, settling_time
 from ..montecarlo import run_batch
+from ..montecarlo._batch import check_batch_states
 from ..numerics import safe_norm
 from ..plants import QuaternionState, RigidBodyQuaternion
 from ..reaching import AbstractReachingLaw, DoublePower, Exponential, TwoPhasePower
@@ -122,8 +123,11 @@ def simulate_cases(
     loop: ClosedLoop, x0s: QuaternionState, horizon: float = HORIZON, dt: float = DT
 ) -> Trajectory:
     """Simulate one closed loop from a batch of initial states (the batch runner, saving every
-    step); returns the batched trajectory (failures reported in its `status`)."""
-    return _simulate_cases(loop, x0s, Simulation(0.0, horizon, dt))
+    step); returns the batched trajectory (failures reported in its `status`). The states
+    are checked on the host first, as by `monte_carlo` (unit quaternions, finite values)."""
+    sim = Simulation(0.0, horizon, dt)
+    x0s, _ = check_batch_states("simulate_cases", loop, x0s)
+    return _simulate_cases(loop, x0s, sim)
 
 
 @eqx.filter_jit

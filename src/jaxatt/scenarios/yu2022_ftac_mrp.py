@@ -71,6 +71,7 @@ from ..controllers import (
 )
 from ..metrics import max_abs, moving_average, peak, settling_time
 from ..montecarlo import barrier_states, run_batch
+from ..montecarlo._batch import check_batch_states
 from ..numerics import safe_norm
 from ..observers import SuperTwistingObserver
 from ..plants import MRPState, RigidBodyMRP
@@ -209,8 +210,11 @@ def simulate_batch(
     loop: ClosedLoop, x0s: MRPState, horizon: float, dt: float, save_every: int
 ) -> Trajectory:
     """Simulate one closed loop from a batch of initial states (the batch runner); failures
-    are reported per sample in the returned trajectory's `status`."""
-    return _simulate_batch(loop, x0s, Simulation(0.0, horizon, dt, save_every=save_every))
+    are reported per sample in the returned trajectory's `status`. The states are checked on
+    the host first, as by `monte_carlo`."""
+    sim = Simulation(0.0, horizon, dt, save_every=save_every)
+    x0s, _ = check_batch_states("simulate_batch", loop, x0s)
+    return _simulate_batch(loop, x0s, sim)
 
 
 @eqx.filter_jit

@@ -7,8 +7,35 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float, PyTree
 
 from .._custom_types import RealScalarLike
-from .._validation import check_positive
+from .._validation import check_gain_shape, check_positive, describe, is_traced
 from ..numerics import clip, safe_norm
+
+
+def _check_scalar(where: str, name: str, value) -> Array:
+    """A positive scalar (a per-axis array would be broadcast against the command's norm)."""
+    return check_gain_shape(where, name, check_positive(where, name, value), ((),))
+
+
+def _check_per_axis(where: str, name: str, value) -> Array:
+    """A positive scalar or a 1-D array of positive values (one per command axis)."""
+    arr = check_positive(where, name, value)
+    if arr.ndim > 1:
+        raise ValueError(
+            f"{where}: `{name}` must be a scalar or a 1-D array (one value per command axis), "
+            f"got shape {arr.shape} ({name}={describe(arr) if not is_traced(arr) else 'traced'})."
+        )
+    return arr
+
+
+def _check_matches_command(where: str, name: str, value: ArrayLike, command) -> None:
+    """A per-axis `value` must have one entry per axis of the command (checked when the loop is
+    traced: the command's shape is only known then, before anything is compiled)."""
+    shape = jnp.shape(command)
+    if jnp.ndim(value) == 1 and (len(shape) == 0 or shape[-1] != jnp.shape(value)[0]):
+        raise ValueError(
+            f"{where}: `{name}` has shape {jnp.shape(value)} (one value per axis) but the "
+            f"controller's command has shape {shape}; give a scalar or one value per axis."
+        )
 
 
 class AbstractActuator(eqx.Module):
@@ -67,10 +94,11 @@ class Saturation(AbstractActuator):
     limit: Float[Array, "*m"]
 
     def __init__(self, limit: Float[ArrayLike, "*m"]):
-        self.limit = check_positive("Saturation", "limit", limit)
+        self.limit = _check_per_axis("Saturation", "limit", limit)
 
     def __call__(self, t, command, state):
         del t, state
+        _check_matches_command("Saturation", "limit", self.limit, command)
         return clip(command, -self.limit, self.limit), None
 
 
@@ -80,13 +108,13 @@ class NormSaturation(AbstractActuator):
     $u \leftarrow u \min(1, u_{\max}/\|u\|)$.
 
     **Arguments:**
-    - `max_norm`: $u_{\max} > 0$ [N m].
+    - `max_norm`: $u_{\max} > 0$ [N m], a scalar (a per-axis limit is [`Saturation`][]).
     """
 
     max_norm: Float[Array, ""]
 
     def __init__(self, max_norm: Float[ArrayLike, ""]):
-        self.max_norm = check_positive("NormSaturation", "max_norm", max_norm)
+        self.max_norm = _check_scalar("NormSaturation", "max_norm", max_norm)
 
     def __call__(self, t, command, state):
         del t, state
@@ -110,14 +138,16 @@ class FirstOrderLag(AbstractActuator):
     time_constant: Float[Array, "*m"]
 
     def __init__(self, time_constant: Float[ArrayLike, "*m"]):
-        self.time_constant = check_positive("FirstOrderLag", "time_constant", time_constant)
+        self.time_constant = _check_per_axis("FirstOrderLag", "time_constant", time_constant)
 
     def init(self, t0, command):
         del t0
+        _check_matches_command("FirstOrderLag", "time_constant", self.time_constant, command)
         return jnp.asarray(command)
 
     def __call__(self, t, command, state):
         del t
+        _check_matches_command("FirstOrderLag", "time_constant", self.time_constant, command)
         return state, (command - state) / self.time_constant
 
 

@@ -151,6 +151,39 @@ def all_finite(tree: PyTree[Array]) -> Bool[Array, ""]:
     return jnp.all(jnp.stack(leaves)) if leaves else jnp.array(True)
 
 
+def _floating_dtypes(tree: PyTree) -> list:
+    return [
+        jnp.result_type(leaf)
+        for leaf in jtu.tree_leaves(tree)
+        if eqx.is_array(leaf) and jnp.issubdtype(jnp.result_type(leaf), jnp.floating)
+    ]
+
+
+def check_state_precision(where: str, closed_loop: PyTree, x0: PyTree, name: str) -> None:
+    """Refuse an initial state with a floating leaf narrower than the precision the loop computes
+    in (the promoted dtype of the loop's and the state's floating arrays).
+
+    Such a state fails deep inside the time loop (the integrated state's dtype would change
+    between steps: "scan body function carry input and carry output must have equal types").
+    States built from Python numbers take JAX's default float and pass; the dtype is known at
+    trace time, so this check also holds for traced states.
+    """
+    loop_dtypes = _floating_dtypes(closed_loop)
+    if not loop_dtypes:
+        return
+    target = jnp.result_type(*loop_dtypes, *_floating_dtypes(x0))
+    for path, leaf in jtu.tree_flatten_with_path(x0)[0]:
+        if not eqx.is_array(leaf) or not jnp.issubdtype(jnp.result_type(leaf), jnp.floating):
+            continue
+        dtype = jnp.result_type(leaf)
+        if dtype != target:
+            raise ValueError(
+                f"{where}: `{name}{jtu.keystr(path)}` is {dtype} but the closed loop computes in "
+                f"{target} (the promoted dtype of its arrays and of `{name}`); build every array "
+                f"in one precision (jnp.asarray(x, jnp.{target}))."
+            )
+
+
 class ClosedLoop(AbstractClosedLoop):
     r"""Plant, reference, (observer,) controller and actuator as one vector field.
 
@@ -229,7 +262,9 @@ class ClosedLoop(AbstractClosedLoop):
     # --- Host-side checks and defaults -----------------------------------------------------
 
     def check_state(self, x0: PyTree, name: str = "x0", batch_shape: tuple[int, ...] = ()):
-        return self.plant.check_state(x0, name, batch_shape)
+        x0 = self.plant.check_state(x0, name, batch_shape)
+        check_state_precision("ClosedLoop", self, x0, name)
+        return x0
 
     def default_metrics(self, tolerance: float) -> dict[str, AbstractMetric]:
         """The plant's default metrics (see `AbstractPlant.default_metrics`)."""

@@ -15,6 +15,27 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 
+def _check_bound(where: str, name: str, value) -> float:
+    """A bound as a finite Python float; an infinite bound would make the starting gain NaN
+    (`inverse` takes the log of an infinite distance) and the range is open on that side
+    anyway with `GreaterThan` or an unconstrained `Identity`."""
+    host = np.asarray(value) if not isinstance(value, (str, bytes)) else None
+    if (
+        host is None
+        or isinstance(value, bool)
+        or host.shape != ()
+        or not (np.issubdtype(host.dtype, np.integer) or np.issubdtype(host.dtype, np.floating))
+    ):
+        raise ValueError(f"{where}: `{name}` must be a real number, got {value!r}.")
+    bound = float(host)
+    if not np.isfinite(bound):
+        raise ValueError(
+            f"{where}: `{name}` must be finite, got {name}={bound!r} (for a range open on that "
+            "side use GreaterThan(low), or Identity() for no constraint)."
+        )
+    return bound
+
+
 class AbstractTransform(eqx.Module):
     """A bijection from the reals onto a gain's valid range."""
 
@@ -61,7 +82,7 @@ class GreaterThan(AbstractTransform):
     low: float = eqx.field(static=True)
 
     def __init__(self, low: float | int = 0.0):
-        self.low = float(low)
+        self.low = _check_bound("GreaterThan", "low", low)
 
     def forward(self, u):
         return self.low + jnp.exp(u)
@@ -90,9 +111,11 @@ class Interval(AbstractTransform):
     high: float = eqx.field(static=True)
 
     def __init__(self, low: float | int, high: float | int):
+        low = _check_bound("Interval", "low", low)
+        high = _check_bound("Interval", "high", high)
         if not high > low:
             raise ValueError(f"Interval: `high` must exceed `low`, got low={low}, high={high}.")
-        self.low, self.high = float(low), float(high)
+        self.low, self.high = low, high
 
     def forward(self, u):
         return self.low + (self.high - self.low) * jax.nn.sigmoid(u)
