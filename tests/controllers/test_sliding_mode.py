@@ -10,7 +10,7 @@ from jaxatt.plants import QuaternionState, RigidBodyQuaternion, Sinusoid
 from jaxatt.reaching import DoublePower, Exponential, Tanh, TwoPhasePower
 from jaxatt.references import IntegratedReference
 from jaxatt.simulation import ClosedLoop, ClosedLoopState
-from jaxatt.sliding import LinearSurface
+from jaxatt.sliding import FractionalSurface, LinearSurface
 
 from ..helpers import J0
 
@@ -103,6 +103,12 @@ def test_linear_surface_rate_matches_autodiff():
             lambda: SlidingModeTracking(LinearSurface(1.0), LAWS[0], -jnp.eye(3)),
             "SlidingModeTracking: `inertia` must be a symmetric positive-definite",
         ),
+        # Unchecked before (review, 2026-12-05): step 0 gave inf, a NaN or negative step NaN,
+        # capacity 0 an IndexError; the order's message named `alpha`.
+        (lambda: FractionalSurface(1.0, 0.5, 0.0, 10), "FractionalSurface: `step` must be"),
+        (lambda: FractionalSurface(1.0, 0.5, float("nan"), 10), "`step` must be positive"),
+        (lambda: FractionalSurface(1.0, 0.5, 0.01, 0), "`capacity` must be a positive integer"),
+        (lambda: FractionalSurface(1.0, 1.5, 0.01, 10), "FractionalSurface: `order` must lie"),
     ],
 )
 def test_bad_sliding_mode_configuration_raises(build, needle):
@@ -111,6 +117,13 @@ def test_bad_sliding_mode_configuration_raises(build, needle):
     assert needle in str(info.value)
 
 
-def test_wrong_component_type_is_a_type_error():
+def test_wrong_component_type_is_a_type_error(no_jaxtyping):
     with pytest.raises(TypeError):
         SlidingModeTracking(LinearSurface(1.0), "two-phase", jnp.eye(3))
+    # A number where a switching function goes (the boundary-layer width, say) failed only
+    # when the law was first evaluated: 'float' object has no attribute 'signed_power'.
+    for law in (TwoPhasePower, DoublePower):
+        with pytest.raises(TypeError, match="`switching` must be a jaxatt.reaching switching"):
+            law(1.2, 1.2, 31 / 11, 5 / 9, 0.1)
+    with pytest.raises(TypeError, match="Exponential: `switching` must be"):
+        Exponential(1.0, 1.0, 0.1)

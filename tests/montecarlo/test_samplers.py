@@ -256,6 +256,25 @@ def test_jitted_sampler_draws_the_same_numbers():
             ),
             "amplitude_scale",
         ),
+        # Documented M > 0 and p > 0: zero gave all-zero rates (review, 2026-12-05).
+        (
+            lambda: mc.rates_with_barrier_ratio(
+                jr.key(0), 3, rate_limit=0.1, exponent=0.0, max_ratio=0.9
+            ),
+            "exponent",
+        ),
+        (
+            lambda: mc.rates_with_barrier_ratio(
+                jr.key(0), 3, rate_limit=0.0, exponent=1.5, max_ratio=0.9
+            ),
+            "rate_limit",
+        ),
+        (
+            lambda: mc.barrier_states(
+                jr.key(0), 3, max_sigma=0.5, rate_limit=0.1, exponent=0.0, max_ratio=0.9
+            ),
+            "exponent",
+        ),
     ],
 )
 def test_bad_arguments_raise_value_error_naming_them(call, name):

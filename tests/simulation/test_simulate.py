@@ -381,14 +381,19 @@ def test_bad_controller_configuration_raises(build, needle):
     assert needle in str(info.value)
 
 
-def test_norm_saturation_needs_a_scalar():
-    # Regression: a per-axis max_norm ran and turned the torque's direction. (The annotation
-    # says it too, so runtime type checking, on in this suite, would reject the call itself;
-    # without it the check below catches the mistake.)
-    from jaxatt.simulation._actuators import _check_scalar
-
+def test_norm_saturation_needs_a_scalar(no_jaxtyping):
+    # Regression: a per-axis max_norm ran and turned the torque's direction. (The suite's type
+    # checking rejects it at the annotation; users meet this check.)
     with pytest.raises(ValueError, match=re.escape("`max_norm` must be a scalar, got shape (3,)")):
-        _check_scalar("NormSaturation", "max_norm", jnp.array([1.0, 5.0, 9.0]))
+        NormSaturation(jnp.array([1.0, 5.0, 9.0]))
+
+
+@pytest.mark.parametrize("period", [True, None, "0.1"])
+def test_a_hold_period_that_is_not_a_number_is_refused(period, no_jaxtyping):
+    # ZeroOrderHold(True) was a 1 s period; None and strings failed inside `float`.
+    with pytest.raises(ValueError, match="ZeroOrderHold: `period` must be a number"):
+        ZeroOrderHold(period)
+    assert ZeroOrderHold(jnp.asarray(0.1)).period == pytest.approx(0.1)
 
 
 @pytest.mark.parametrize(

@@ -58,13 +58,13 @@ def test_nearest_odd_ratio():
 def test_transform_bounds_must_be_finite_numbers(build, needle):
     with pytest.raises(ValueError, match=re.escape(needle)):
         build()
-    # (The annotation says it too, so runtime type checking, on in this suite, would reject the
-    # call itself; without it the check below catches the mistake.)
-    from jaxatt.tune._transforms import _check_bound
 
+
+def test_a_transform_bound_that_is_not_a_number_is_refused(no_jaxtyping):
+    # (The suite's type checking rejects it at the annotation; users meet this check.)
     with pytest.raises(ValueError, match="GreaterThan: `low` must be a real number"):
-        _check_bound("GreaterThan", "low", "0")
-    assert _check_bound("Interval", "high", np.float32(2)) == 2.0
+        tune.GreaterThan("0")
+    assert float(tune.Interval(0.0, np.float32(2)).high) == 2.0
 
 
 # Four of the Chen tuning problem's parameters: paths, so every test's parameters are equal

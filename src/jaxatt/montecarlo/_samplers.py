@@ -17,7 +17,13 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 
 from .._custom_types import RealScalarLike
-from .._validation import check, check_nonnegative, check_spd, check_unit_quaternion
+from .._validation import (
+    check,
+    check_nonnegative,
+    check_positive,
+    check_spd,
+    check_unit_quaternion,
+)
 from ..plants import MRPState, QuaternionState
 from ..rotations import mrp_from_quat, quat_multiply, quat_to_dcm
 from ..signals import Sinusoid
@@ -181,8 +187,9 @@ def _attitudes_around(key: PRNGKeyArray, n: int, max_angle: Array, nominal: Arra
     return jax.vmap(quat_multiply, in_axes=(None, 0))(nominal, e)
 
 
-def _check_bound(where: str, name: str, value: ArrayLike, shapes) -> Array:
-    value = check_nonnegative(where, name, value)
+def _check_bound(where: str, name: str, value: ArrayLike, shapes, *, positive=False) -> Array:
+    rule = check_positive if positive else check_nonnegative
+    value = rule(where, name, value)
     if value.shape not in shapes:
         raise ValueError(
             f"{where}: `{name}` must have one of the shapes {list(shapes)}, got shape "
@@ -441,8 +448,8 @@ def rates_with_barrier_ratio(
     """
     where = "rates_with_barrier_ratio"
     n = _check_count(where, n)
-    rate_limit = _check_bound(where, "rate_limit", rate_limit, ((),))
-    exponent = _check_bound(where, "exponent", exponent, ((),))
+    rate_limit = _check_bound(where, "rate_limit", rate_limit, ((),), positive=True)
+    exponent = _check_bound(where, "exponent", exponent, ((),), positive=True)
     max_ratio = check(
         where, "max_ratio", max_ratio, lambda xp, x: (x > 0) & (x <= 1), "must lie in (0, 1]"
     )
@@ -479,8 +486,8 @@ def barrier_states(
     where = "barrier_states"
     n = _check_count(where, n)
     max_sigma = _check_bound(where, "max_sigma", max_sigma, ((),))
-    rate_limit = _check_bound(where, "rate_limit", rate_limit, ((),))
-    exponent = _check_bound(where, "exponent", exponent, ((),))
+    rate_limit = _check_bound(where, "rate_limit", rate_limit, ((),), positive=True)
+    exponent = _check_bound(where, "exponent", exponent, ((),), positive=True)
     max_ratio = check(
         where, "max_ratio", max_ratio, lambda xp, x: (x > 0) & (x <= 1), "must lie in (0, 1]"
     )

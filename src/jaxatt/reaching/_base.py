@@ -23,6 +23,14 @@ class AbstractReachingLaw(eqx.Module):
 
     switching: eqx.AbstractVar[AbstractSwitching]
 
+    def __check_init__(self):
+        if not isinstance(self.switching, AbstractSwitching):
+            raise TypeError(
+                f"{type(self).__name__}: `switching` must be a jaxatt.reaching switching "
+                "function (Sign(), Saturation(width), Tanh(width)), got "
+                f"{type(self.switching).__name__} {self.switching!r}."
+            )
+
     @abc.abstractmethod
     def rate(self, s: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
         r"""Right-hand side $\dot s = r(s)$ of the reaching dynamics.

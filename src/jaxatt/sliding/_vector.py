@@ -5,6 +5,8 @@ wants $\dot s = r(s)$ sets $\ddot e = r(s) - \dot h$, with `error_term_rate(e, e
 $= \dot h$ in closed form. The fractional surface has a memory and its own interface.
 """
 
+import numbers
+
 import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
@@ -113,8 +115,12 @@ class FractionalSurface(eqx.Module):
     def __init__(self, slope, order, step: float, capacity: int, caputo: bool = True):
         where = "FractionalSurface"
         self.slope = check_gain_shape(where, "slope", check_positive(where, "slope", slope))
-        self.order = check_in_open_interval(where, "alpha", order, 0.0, 1.0)
-        self.step = float(step)
+        self.order = check_in_open_interval(where, "order", order, 0.0, 1.0)
+        self.step = float(check_positive(where, "step", step))
+        if isinstance(capacity, bool) or not isinstance(capacity, numbers.Integral) or capacity < 1:
+            raise ValueError(
+                f"{where}: `capacity` must be a positive integer (samples kept), got {capacity!r}."
+            )
         self.capacity = int(capacity)
         self.caputo = bool(caputo)
 
