@@ -5,6 +5,7 @@ wants $\dot s = r(s)$ sets $\ddot e = r(s) - \dot h$, with `error_term_rate(e, e
 $= \dot h$ in closed form. The fractional surface has a memory and its own interface.
 """
 
+import math
 import numbers
 
 import equinox as eqx
@@ -116,7 +117,10 @@ class FractionalSurface(eqx.Module):
         where = "FractionalSurface"
         self.slope = check_gain_shape(where, "slope", check_positive(where, "slope", slope))
         self.order = check_in_open_interval(where, "order", order, 0.0, 1.0)
-        self.step = float(check_positive(where, "step", step))
+        step = float(step)  # static: the sample grid
+        if not (math.isfinite(step) and step > 0):
+            raise ValueError(f"{where}: `step` must be positive [s], got step={step}.")
+        self.step = step
         if isinstance(capacity, bool) or not isinstance(capacity, numbers.Integral) or capacity < 1:
             raise ValueError(
                 f"{where}: `capacity` must be a positive integer (samples kept), got {capacity!r}."
