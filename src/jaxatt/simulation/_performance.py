@@ -43,19 +43,16 @@ class Performance(eqx.Module):
       `jaxatt.simulation._scalarize`), so that a `vmap`ped batch lowers to elementwise code on
       one `(batch,)` array per state component. `True`, `False`, or `None` (default): decided
       per backend and batch by [`resolve`][]: on XLA:CPU from [`SCALARIZE_FROM`][] = 1000
-      samples run at once on one device, where it was 1.5-3x faster on a 2-core CPU
-      (benchmarks/README.md), at about twice the compile time. Below, the gain does not pay
-      for the compile. Chen's M1 loop (default metrics, float64, 2-core CPU, 2026-12-03; 1 s
-      runs of `monte_carlo` with `scalarize` forced, min of up to 5 after a warm-up): at
-      10, 100 and 300 samples a step took 19, 63 and 166 µs scalarized against 22, 78 and
-      194 µs plain (1.15-1.24x), but the program compiled in 3.5-3.8 s against 1.8-2.0 s,
-      which a run recovers only after about 70 000 steps at 300 samples; at 1000 samples,
-      282 against 579 µs (2.05x). Off for a single trajectory (13.7 against 8.3 µs a step)
-      and off on GPUs and TPUs, where it has not been measured. On every reproduced family
-      (benchmarks/README.md, `bench_scalarize_families.py`, 2026-12-05): 1.02-3.9x faster at
-      1000 and 4000 samples, except the cheapest loop, the rigid-body MRP PD law, at 1000
-      (0.71x; 2.37x at 4000); Wu 2018's safe approach gains 1.04-1.12x for 38 s of compile
-      against 18 s, so `scalarize=False` suits it unless the run is long.
+      samples run at once on one device, at about twice the compile time. On every
+      reproduced family (benchmarks/README.md, `bench_scalarize_families.py`, 2026-12-05,
+      2-core AVX-512 Xeon, float64): 1.02-3.9x faster at 1000 and 4000 samples (Chen M1 3.1x
+      and 3.9x), except the cheapest loop, the rigid-body MRP PD law, at 1000 (0.71x; 2.37x
+      at 4000); Wu 2018's safe approach gains 1.04-1.12x for 38 s of compile against 18 s,
+      so `scalarize=False` suits it unless the run is long. Below 1000 samples Chen M1's
+      step is 1.7-2.0x faster scalarized (32-512 samples), but the program compiles 2.1-2.4 s
+      longer, which a run recovers only after 4-8 x 10^6 state-steps, and gradients do not
+      gain ("Below the threshold"). Off for a single trajectory (13.7 against 8.3 µs a step,
+      2026-12-03) and off on GPUs and TPUs, where it has not been measured.
     - `max_scalarized_size`: arrays with more entries than this stay whole (default 64).
     - `max_unrolled_products`: matrix products needing more scalar multiplications than this
       stay one packed product (default 64; a 3x3 matrix product needs 27). Keeps the compile
