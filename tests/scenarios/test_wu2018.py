@@ -115,6 +115,21 @@ def test_unsaturated_law_meets_its_reaching_dynamics_exactly():
     np.testing.assert_allclose(s_dot, expected, rtol=1e-9, atol=1e-12)
 
 
+@pytest.mark.parametrize("velocity_limit", [None, 1.0])
+def test_the_integral_surface_starts_on_the_surface(velocity_limit):
+    # `integral_start="zero_surface"` promises s(0) = 0. With a velocity limit the surface
+    # holds sat_V(w + b), and the integral was set as if it held w + b: s(0) was
+    # e2 (1 - 1/sqrt(1 + |e2|^2/V^2)) away from 0, up to 0.013 m/s here (review, 2026-12-05).
+    loop = wu2018.build(surface="integral", velocity_limit=velocity_limit)
+    x0 = wu2018.initial_state(wu2018.CASES["case1"])
+    x0 = eqx_replace_velocity(x0, jnp.array([-0.3, 0.05, -0.02]))
+    y0 = loop.init(0.0, x0)
+    ref, _ = loop.reference(0.0, y0.reference)
+    signals = loop.controller.signals(0.0, y0.plant, ref, y0.controller)
+    np.testing.assert_allclose(signals["s_translation"], 0.0, atol=1e-12)
+    np.testing.assert_allclose(signals["s_attitude"], 0.0, atol=1e-12)
+
+
 def eqx_replace_velocity(x0, velocity):
     orbit = x0.orbit
     return type(x0)(type(orbit)(orbit.theta, orbit.rho, velocity), x0.attitude)

@@ -17,7 +17,8 @@ Per channel, with the printed gain names (SPEC's template; our choices marked **
     fast terminal surface; on $s = 0$ the position obeys $\dot e_1 = -\mathrm{sat}_V(w + b)$;
   - `surface="integral"` (the template's literal form): $w = k_1e_1 + k_2\int_0^t
     \mathrm{sig}^\gamma(e_1)\,d\tau$ (`integral_start="zero_surface"` starts the integral where
-    $s(0) = 0$);
+    $s(0) = 0$, through the saturation's inverse when there is a velocity limit and the
+    initial rate error is below it);
   - $b = \nabla\Phi$, the avoidance term (translation only, `avoidance="surface"`): the gradient
     of Khatib's potential $\Phi = \frac{k_h}{2}\max(0, 1/\hat h - 1/\hat h_0)^2$ on $1/\hat h$,
     i.e. $k_h(1/\hat h - 1/\hat h_0)\nabla(1/\hat h)$, with $\hat h = h/N$ the collision-avoidance
@@ -262,9 +263,25 @@ class SafeApproachSlidingMode(AbstractController):
         b = b if self.avoidance == "surface" else jnp.zeros(3)
         _, _, _, a1, a2, _ = self._attitude_errors(measurement, reference)
         return SafeApproachState(
-            ChannelState(-(e2 + self.k1 * e1 + b) / self.k2, jnp.zeros(3), jnp.zeros(())),
-            ChannelState(-(a2 + self.k1 * a1) / self.k2, jnp.zeros(3), jnp.zeros(())),
+            ChannelState(
+                (self._unsaturated(-e2) - self.k1 * e1 - b) / self.k2, jnp.zeros(3), jnp.zeros(())
+            ),
+            ChannelState(
+                (self._unsaturated(-a2) - self.k1 * a1) / self.k2, jnp.zeros(3), jnp.zeros(())
+            ),
         )
+
+    def _unsaturated(self, kappa: Array) -> Array:
+        r"""The $w + b$ whose saturation is `kappa`: $\mathrm{sat}_V^{-1}(\kappa) =
+        \kappa/\sqrt{1 - \|\kappa\|^2/V^2}$ (`kappa` itself without a velocity limit), so that
+        `integral_start="zero_surface"` gives $s(0) = 0$. Defined for $\|\kappa\| < V$; a
+        larger initial rate error cannot be cancelled by any integral (the saturation's range
+        is the open ball of radius $V$), and its norm is taken as $(1 - 10^{-6})V$."""
+        if self.velocity_limit is None:
+            return kappa
+        v2 = self.velocity_limit**2
+        ratio = jnp.minimum((kappa @ kappa) / v2, (1.0 - 1e-6) ** 2)
+        return kappa / jnp.sqrt(1.0 - ratio)
 
     def check_initial(self, t0, measurement, reference) -> None:
         where = "SafeApproachSlidingMode"
