@@ -222,7 +222,8 @@ class SettlingObjective(AbstractObjective):
     metric objects are `sample_metrics`; a failed sample gets `inf` times and NaN otherwise):
     `settling_time` (exact last exit, `inf` if unsettled), `objective_time` (the
     convergence time above), `peak_torque` and `peak_command` (max |u_i|, applied and
-    commanded), `effort`, `chattering`, `settled`, `successful`, `status`.
+    commanded), `effort`, `chattering`, `settled`, `successful`, `status`, and
+    `failure_time` (the time [s] of the first failure, `inf` for a successful sample).
     """
 
     simulation: Simulation
@@ -337,8 +338,9 @@ class MetricObjective(AbstractObjective):
     - `aggregate`: `Mean()` (default), `Quantile(q)`, `CVaR(alpha)`, `WorstCase()`.
 
     `aux` holds every metric of `times` and `limits` per sample, `objective_time` ($T$),
-    `successful` and `status`. A failed sample (non-finite state, a constraint violated) has
-    `inf` times, so the loss is `inf` and [`tune`][] stops (a failure never lowers the loss).
+    `successful`, `status` and `failure_time` [s]. A failed sample (non-finite state, a
+    constraint violated) has `inf` times, so the loss is `inf` and [`tune`][] stops (a failure
+    never lowers the loss).
     """
 
     simulation: Simulation
@@ -464,15 +466,17 @@ def _check_batch(where: str, closed_loop: AbstractClosedLoop, x0s: PyTree) -> No
 def _run_metrics(
     simulation: Simulation, closed_loop: AbstractClosedLoop, x0s: PyTree, metrics: dict
 ) -> dict[str, Array]:
-    """Per-sample `metrics` plus `successful` and `status`, from the Monte Carlo batch runner
-    with the performance options resolved for the batch size, reduced on the fly when every
-    metric streams (as [`jaxatt.montecarlo.monte_carlo`][] does: the same values, no saved
-    trajectory to store or to differentiate through; else from the saved trajectory)."""
+    """Per-sample `metrics` plus `successful`, `status` and `failure_time` [s], from the Monte
+    Carlo batch runner with the performance options resolved for the batch size, reduced on the
+    fly when every metric streams (as [`jaxatt.montecarlo.monte_carlo`][] does: the same
+    values, no saved trajectory to store or to differentiate through; else from the saved
+    trajectory)."""
     sim = simulation.with_performance(simulation.performance.resolve(_batch_size(x0s)))
     result = run_batch(closed_loop, x0s, sim, metrics, stream=streamable(metrics))
     out = dict(result.metrics)
     out["successful"] = result.successful
     out["status"] = result.status
+    out["failure_time"] = result.failure_time
     return out
 
 
