@@ -528,10 +528,16 @@ def _write_figures(out: pathlib.Path, trajs: dict[str, Trajectory], mc: dict | N
         if mc is None:
             return
         fig, ax = plt.subplots(figsize=(7, 3.2), layout="constrained")
-        bins = np.linspace(0, max(float(np.max(np.asarray(mc["FT"]["max_abs_omega"]))), 0.5), 41)
+        # Only finite peaks are histogrammed (a diverged sample's NaN made the bins NaN);
+        # the diverged samples are counted in the legend and in metrics.json's violations.
+        peaks = {n: np.max(np.asarray(mc[n]["max_abs_omega"]), axis=1) for n in ("FTAC", "FT")}
+        finite = {n: p[np.isfinite(p)] for n, p in peaks.items()}
+        top = max([0.5, *(float(p.max()) for p in finite.values() if p.size)])
+        bins = np.linspace(0, top, 41)
         for name in ("FTAC", "FT"):
-            peaks = np.max(np.asarray(mc[name]["max_abs_omega"]), axis=1)
-            ax.hist(peaks, bins=bins, alpha=0.6, color=colors[name], label=name)
+            diverged = peaks[name].size - finite[name].size
+            label = f"{name} ({diverged} non-finite, not shown)" if diverged else name
+            ax.hist(finite[name], bins=bins, alpha=0.6, color=colors[name], label=label)
         ax.axvline(RATE_LIMIT, color="k", ls="--", lw=0.8)
         ax.set_xlabel("$\\max_{t,i} |\\omega_i(t)|$ [rad/s]")
         ax.set_ylabel("samples")
