@@ -122,3 +122,66 @@ def test_monte_carlo_rate_bound_ftac_keeps_it_ft_does_not():
     fraction = float(np.mean(np.asarray(ft["violated"])))
     assert 0.4 < fraction < 0.8, fraction  # measured 0.61
     assert np.all(np.asarray(ft["status"]) == 0)  # FT has no barrier to report
+
+
+def _stub_trajectory(omega):
+    """A hand-made (unbatched) trajectory with the fields `trajectory_metrics` reads."""
+    from jaxatt.plants import MRPState
+    from jaxatt.simulation import ClosedLoopState, Trajectory
+
+    omega = jnp.asarray(omega, dtype=float)
+    plant = MRPState(jnp.full_like(omega, 1e-5), omega)
+    return Trajectory(
+        ts=jnp.linspace(0.0, 0.2, omega.shape[0]),
+        states=ClosedLoopState(plant, None, None),
+        signals={"u": jnp.zeros_like(omega)},
+        status=jnp.array(0),
+        failure_time=jnp.array(jnp.inf),
+        events={},
+    )
+
+
+def test_a_diverged_run_violates_the_rate_bound_and_supports_no_claim():
+    """A NaN rate counts as |omega| >= M (NaN >= M is False, so it used to pass), and a claim
+    holds only if the runs it is about ended `successful`."""
+    diverged = _stub_trajectory([[0.1, 0.1, 0.1], [jnp.nan, jnp.nan, jnp.nan]])
+    assert bool(yu.trajectory_metrics(diverged)["constraint_violated"])
+    fine = _stub_trajectory([[0.1, 0.1, 0.1], [0.05, 0.0, 0.0]])
+    assert not bool(yu.trajectory_metrics(fine)["constraint_violated"])
+
+    def entry(violated, result):
+        return {
+            "sigma_settle_time": 5.0,
+            "sigma_settle_time_0.0001": 10.0,
+            "constraint_violated": violated,
+            "observer_error_after_5s": 0.0,
+            "result": result,
+        }
+
+    for ftac_result in ("nonfinite_state", "constraint_violated"):
+        m = {
+            case: {
+                "FTAC": entry(False, ftac_result),
+                "FT": entry(True, "successful"),
+                "PD": entry(False, "successful"),
+            }
+            for case in yu.CASES
+        }
+        for case in yu.CASES:
+            c = yu.claims(m)[case]
+            assert not c["FTAC_respects_rate_bound"]
+            assert not c["observer_error_below_tolerance_after_5s"]
+            assert c["FT_violates_rate_bound"]
+
+
+def test_monte_carlo_summary_counts_diverged_samples_as_violations():
+    """Sample 1 diverged (NaN rates, status nonfinite_state), sample 2 ended
+    constraint_violated between saved samples: both are violations, and the largest rate is
+    infinite (JSON null), not NaN."""
+    peaks = np.array([[0.1, 0.2, 0.3], [np.nan, np.nan, np.nan], [0.1, 0.1, 0.1]])
+    summary = yu.monte_carlo_summary({"max_abs_omega": peaks, "status": np.array([0, 1, 2])})
+    assert summary["violations"] == 2 and summary["unsuccessful_results"] == 2
+    assert summary["violation_fraction"] == pytest.approx(2 / 3)
+    assert summary["largest_abs_omega"] == np.inf
+    ok = yu.monte_carlo_summary({"max_abs_omega": peaks[[0]], "status": np.array([0])})
+    assert ok["violations"] == 0 and ok["largest_abs_omega"] == pytest.approx(0.3)

@@ -132,3 +132,32 @@ def test_bad_options_are_refused():
         hover.build("ppc", rate_term="minus")
     with pytest.raises(ValueError, match="name"):
         hover.build("pid")
+
+
+def test_claims_need_successful_runs():
+    """PPC stopped `constraint_violated` between saved samples (no saved margin <= 0) and the
+    finite-time law diverged: no claim about either may hold (envelopes_respected used to be
+    True, since it counted only the saved samples)."""
+
+    def entry(times, status, overshoot):
+        return {
+            **{f"settle_time_{g}": t for g, t in zip(hover.GROUPS, times)},
+            "envelope_violations": 0,
+            "status": status,
+            "overshoot_x": overshoot,
+        }
+
+    m = {
+        "linear_smc": entry([200.0, 300.0, 200.0, 300.0], int(Status.successful), 5.0),
+        "ppc": entry([100.0, 100.0, 100.0, 100.0], int(Status.constraint_violated), 1.0),
+        "finite_time_ppf": entry([50.0, 50.0, 50.0, 50.0], int(Status.nonfinite_state), 0.5),
+    }
+    c = hover.claims(m)
+    assert not c["envelopes_respected"] and not c["x_overshoot_reduced_by_ppc"]
+    assert not any(c["linear_slower_than_ppc"].values())
+    assert not any(c["ppc_slower_than_finite_time"].values())
+    m["ppc"]["status"] = m["finite_time_ppf"]["status"] = int(Status.successful)
+    c = hover.claims(m)
+    assert c["envelopes_respected"] and c["x_overshoot_reduced_by_ppc"]
+    assert all(c["linear_slower_than_ppc"].values())
+    assert all(c["ppc_slower_than_finite_time"].values())

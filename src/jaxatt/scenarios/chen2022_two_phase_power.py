@@ -27,7 +27,6 @@ $\sigma^2 s/(\sigma\|s\| + \epsilon)$, $\sigma = 0.35$, $\epsilon = 0.01$:
   gives neither step nor horizon). `sign(0) = 0`.
 """
 
-import json
 import pathlib
 
 import equinox as eqx
@@ -47,6 +46,7 @@ from ..signals import Sinusoid
 from ..simulation import ClosedLoop, Saturation, Simulation, Trajectory
 from ..sliding import LinearSurface
 from . import _xia2011
+from ._io import write_json
 from ._protocol import Scenario
 
 
@@ -239,7 +239,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
             metrics[case][name] = {key: _to_json(v) for key, v in values.items()}
             metrics[case][name]["successful"] = bool(one.successful)
     _write_figures(out, trajs)
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    write_json(out / "metrics.json", metrics)
     return metrics
 
 

@@ -35,7 +35,6 @@ $8 - 2\lambda_k > 0$). The loop itself is stable at 0.26 s: $h^* = 0.33833$ s, a
 spectral radius at 0.26 s is 0.8655.
 """
 
-import json
 import pathlib
 import time
 
@@ -63,6 +62,7 @@ from ..networks import (
 )
 from ..plants import AgentsState, SingleIntegratorAgents
 from ..simulation import ClosedLoop, Trajectory, simulate
+from ._io import write_json
 from ._protocol import Scenario
 
 
@@ -439,7 +439,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
     }
     metrics["timings"] = timings
     _write_figures(out, trajs, exact, metrics)
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    write_json(out / "metrics.json", metrics)
     return metrics
 
 

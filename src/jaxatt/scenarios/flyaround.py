@@ -27,7 +27,6 @@ $\dot\rho(0)$ in $\pm 0.5$ m/s, uniformly random attitudes and rates up to 0.02 
 reported: the worst final position error, pointing error, and the settling times.
 """
 
-import json
 import math
 import pathlib
 
@@ -47,6 +46,7 @@ from ..rotations import quat_from_axis_angle
 from ..signals import Sinusoid
 from ..simulation import ClosedLoop, EnergyMeter, Simulation, Trajectory, simulate
 from ..sliding import LinearSurface, PDSurface
+from ._io import write_json
 from ._protocol import Scenario
 
 
@@ -245,7 +245,7 @@ def reproduce(out_dir, *, short: bool = False, progress: bool = False) -> dict:
         "monte_carlo": _summary(rest, seed, horizon),
     }
     _write_figures(out, nominal)
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    write_json(out / "metrics.json", metrics)
     return metrics
 
 

@@ -11,7 +11,6 @@ Simulation: classic RK4, dt = 1e-2 s (1e-3 in `reproduce(short=False)`), 40 s, c
 control.
 """
 
-import json
 import pathlib
 
 import equinox as eqx
@@ -28,6 +27,7 @@ from ..plants import MRPState, RigidBodyMRP
 from ..rotations import mrp_from_quat
 from ..simulation import ClosedLoop, Saturation, Simulation, Trajectory, simulate
 from . import _xia2011
+from ._io import write_json
 from ._protocol import Scenario
 
 
@@ -114,18 +114,7 @@ def reproduce(
     trajs, batch_metrics = _batch(loop, random_initial_states(jr.key(0), n), sim)
     bar.update()
     bar.close()
-    times = np.asarray(batch_metrics["settling_time"])
-    ok = np.asarray(trajs.successful)
-    summary = {
-        "samples": n,
-        "failed_samples": int((~ok).sum()),
-        "settled_fraction": float(np.isfinite(times).mean()),
-        "settling_time_mean": float(np.mean(times[np.isfinite(times)]))
-        if np.isfinite(times).any()
-        else None,
-        "settling_time_max": float(np.max(times)),
-        "peak_torque_max": float(np.max(batch_metrics["peak_torque"])),
-    }
+    summary = monte_carlo_summary(batch_metrics, trajs.successful)
     metrics = {
         "scenario": "rigid_body_pd",
         "dt": dt,
@@ -151,8 +140,32 @@ def reproduce(
         ax.legend()
         fig.savefig(out / "montecarlo.png")
         plt.close(fig)
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    write_json(out / "metrics.json", metrics)
     return metrics
+
+
+def monte_carlo_summary(batch_metrics: dict, successful) -> dict:
+    """The `monte_carlo` entry of `metrics.json` from the batch's metrics and success flags.
+
+    A failed sample counts at its worst: never settled (an infinite settling time, also where
+    its metric holds NaN) and an unbounded peak torque. `settling_time_max` and
+    `peak_torque_max` are therefore infinite (JSON `null`) as soon as one sample is unsettled
+    or failed; `settling_time_mean` averages the settled samples (None if there are none).
+    """
+    ok = np.asarray(successful, dtype=bool)
+    times = np.asarray(batch_metrics["settling_time"], dtype=float)
+    times = np.where(ok & ~np.isnan(times), times, np.inf)
+    torques = np.asarray(batch_metrics["peak_torque"], dtype=float)
+    torques = np.where(ok & ~np.isnan(torques), torques, np.inf)
+    settled = np.isfinite(times)
+    return {
+        "samples": int(ok.size),
+        "failed_samples": int((~ok).sum()),
+        "settled_fraction": float(settled.mean()),
+        "settling_time_mean": float(np.mean(times[settled])) if settled.any() else None,
+        "settling_time_max": float(np.max(times)),
+        "peak_torque_max": float(np.max(torques)),
+    }
 
 
 SCENARIO = Scenario(

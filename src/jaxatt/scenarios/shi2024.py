@@ -48,7 +48,6 @@ program, the metrics and figure series (`derived`) computed inside it.
 """
 
 import dataclasses
-import json
 import pathlib
 from collections.abc import Sequence
 
@@ -80,6 +79,7 @@ from ..rotations import attitude_error_quat
 from ..shaping import ShapedAttitude, ZeroVibration, ZeroVibrationDerivative, ZeroVibrationSmoother
 from ..signals import Sinusoid
 from ..simulation import ClosedLoop, Simulation, Status, Trajectory, integrate, simulate
+from ._io import write_json
 from ._protocol import Scenario
 
 
@@ -596,7 +596,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
     metrics["observer_floor"] = None if short else observer_floor()
     metrics["claims"] = claims(metrics)
     _write_figures(out, runs, metrics["observer_floor"])
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    write_json(out / "metrics.json", metrics)
     return metrics
 
 

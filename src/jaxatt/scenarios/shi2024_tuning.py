@@ -23,7 +23,6 @@ slow smoother cannot hide a slow manoeuvre), on the saved grid.
   re-measured on the paper's case 1 (with the observer) at dt = 1e-2 s over 150 s.
 """
 
-import json
 import pathlib
 
 import equinox as eqx
@@ -40,6 +39,7 @@ from ..numerics import amax
 from ..rotations import attitude_error_quat
 from ..simulation import AbstractClosedLoop, ClosedLoop, Simulation, integrate
 from . import shi2024
+from ._io import write_json
 from ._protocol import TuningProblem
 
 
@@ -259,7 +259,7 @@ def run(
         }
         for p in points
     }
-    (out / "tuning.json").write_text(json.dumps(report, indent=2))
+    write_json(out / "tuning.json", report)
     _plot(out, report)
     lines = [
         "# Vibration-aware tuning of Shi 2024's TVSMC and smoother",

@@ -65,7 +65,6 @@ $P_1 = 0.01$, $P_2 = 0.09$; $a_1 = 48.9$, $a_2 = 49$, $a_3 = 50$ m, $\theta = \p
 11. *Integration*: classic RK4, dt = 0.02 s, continuous control, horizon 300 s.
 """
 
-import json
 import math
 import pathlib
 from typing import ClassVar
@@ -93,6 +92,7 @@ from ..rotations import mrp_kinematics_matrix, quat_from_mrp
 from ..safety import CollisionAvoidance, ConeCorridor, KeepOutSphere
 from ..signals import AbstractSignal
 from ..simulation import ClosedLoop, Simulation, Status, Trajectory
+from ._io import write_json
 from ._protocol import Scenario
 
 
@@ -408,7 +408,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
         "outside": monte_carlo_summary(_take(on, slice(2 + n, None)), outside),
     }
     _write_figures(out, on, off, direct, n)
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    write_json(out / "metrics.json", metrics)
     return metrics
 
 

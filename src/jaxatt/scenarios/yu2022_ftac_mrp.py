@@ -52,7 +52,6 @@ simulates FTAC (without the opt-out) and FT, both with the observer, from the sa
 `RateConstrainedFiniteTimeMRP` for an initial relative gap of 0.01 or more (about 7e-3 s).
 """
 
-import json
 import pathlib
 
 import equinox as eqx
@@ -77,6 +76,7 @@ from ..observers import SuperTwistingObserver
 from ..plants import MRPState, RigidBodyMRP
 from ..signals import Sinusoid
 from ..simulation import ClosedLoop, Simulation, Status, Trajectory
+from ._io import write_json
 from ._protocol import Scenario
 
 
@@ -256,7 +256,8 @@ def trajectory_metrics(traj: Trajectory) -> dict[str, jax.Array]:
         "sigma_settle_time": settling_time(ts, sigma_norm, SETTLE_TOLERANCE),
         "peak_torque": peak(u),
         "peak_torque_after_0.1s": jnp.max(jnp.abs(jnp.where((ts >= 0.1)[:, None], u, 0.0))),
-        "constraint_violated": jnp.any(jnp.abs(omega) >= RATE_LIMIT),
+        # `~(|omega| < M)`, not `|omega| >= M`: a NaN rate (a diverged run) is a violation.
+        "constraint_violated": jnp.any(~(jnp.abs(omega) < RATE_LIMIT)),
         "initial_barrier_ratio": ratio[0],
         "max_barrier_ratio_after_0.1s": jnp.max(jnp.where(ts >= 0.1, ratio, 0.0)),
         "admissible_initial_state": ratio[0] < 1,
@@ -311,8 +312,9 @@ def rate_bound_monte_carlo(
     """Simulate each controller (with the observer) from the same random admissible batch.
 
     **Returns:** per controller, `max_abs_omega` (n, 3) over the saved times (every 1e-2 s),
-    `violated` (n,) ($\\max_{t,i}|\\omega_i| \\ge M$), `status` (n,) (`Status` codes, e.g.
-    FTAC's barrier report), and the sampled `x0s` under `"x0s"`.
+    `violated` (n,) (some saved $|\\omega_i| \\ge M$ or non-finite, or the sample's status not
+    successful: a diverged or failed sample counts as a violation), `status` (n,) (`Status`
+    codes, e.g. FTAC's barrier report), and the sampled `x0s` under `"x0s"`.
     """
     x0s = sample_admissible_states(key, n)
     save_every = max(1, round(1e-2 / dt))
@@ -322,10 +324,29 @@ def rate_bound_monte_carlo(
         peak_rates = jnp.max(jnp.abs(traj.plant_states.omega), axis=1)
         out[name] = {
             "max_abs_omega": peak_rates,
-            "violated": jnp.any(peak_rates >= RATE_LIMIT, axis=1),
+            "violated": jnp.any(~(peak_rates < RATE_LIMIT), axis=1) | (traj.status != 0),
             "status": traj.status,
         }
     return out
+
+
+def monte_carlo_summary(result: dict) -> dict:
+    """The `metrics.json` summary of one controller's entry of [`rate_bound_monte_carlo`][].
+
+    `violations` and `violation_fraction` count every sample that does not demonstrably respect
+    the bound: a saved $|\\omega_i| \\ge M$, a non-finite rate, or an unsuccessful status
+    (`unsuccessful_results` repeats how many were unsuccessful). `largest_abs_omega` is the
+    largest saved rate, infinite (JSON `null`) when some sample's rate is not finite.
+    """
+    peaks = np.asarray(result["max_abs_omega"], dtype=float)
+    status = np.asarray(result["status"])
+    violated = np.any(~(peaks < RATE_LIMIT), axis=-1) | (status != Status.successful)
+    return {
+        "violations": int(np.sum(violated)),
+        "violation_fraction": float(np.mean(violated)),
+        "largest_abs_omega": float(np.max(np.where(np.isfinite(peaks), peaks, np.inf))),
+        "unsuccessful_results": int(np.sum(status != Status.successful)),
+    }
 
 
 def _to_json(value):
@@ -340,7 +361,8 @@ def _to_json(value):
 
 def claims(metrics: dict) -> dict[str, dict[str, bool]]:
     """The paper's claims evaluated on the metrics of each case (settling at 1e-3 unless
-    stated)."""
+    stated). A claim holds only if every run it is about ended `successful`: a diverged or
+    failed run never supports one (a non-finite rate already counts as a violation)."""
 
     def time(value) -> float:  # JSON stores an unsettled (infinite) time as None
         return float("inf") if value is None else float(value)
@@ -350,14 +372,17 @@ def claims(metrics: dict) -> dict[str, dict[str, bool]]:
         m = metrics[case]
         t = {name: time(m[name]["sigma_settle_time"]) for name in CONTROLLERS}
         t4 = {name: time(m[name]["sigma_settle_time_0.0001"]) for name in CONTROLLERS}
+        ok = {name: m[name]["result"] == Status.successful.name for name in CONTROLLERS}
+        observer_error = m["FTAC"]["observer_error_after_5s"]
         out[case] = {
-            "FT_faster_than_FTAC": t["FT"] < t["FTAC"],
-            "FT_violates_rate_bound": m["FT"]["constraint_violated"],
-            "FTAC_respects_rate_bound": not m["FTAC"]["constraint_violated"],
-            "PD_slowest": t["PD"] > max(t["FT"], t["FTAC"]),
-            "PD_slowest_at_1e-4": t4["PD"] > max(t4["FT"], t4["FTAC"]),
-            "observer_error_below_tolerance_after_5s": m["FTAC"]["observer_error_after_5s"]
-            < OBSERVER_TOLERANCE,
+            "FT_faster_than_FTAC": ok["FT"] and ok["FTAC"] and t["FT"] < t["FTAC"],
+            "FT_violates_rate_bound": ok["FT"] and bool(m["FT"]["constraint_violated"]),
+            "FTAC_respects_rate_bound": ok["FTAC"] and not m["FTAC"]["constraint_violated"],
+            "PD_slowest": all(ok.values()) and t["PD"] > max(t["FT"], t["FTAC"]),
+            "PD_slowest_at_1e-4": all(ok.values()) and t4["PD"] > max(t4["FT"], t4["FTAC"]),
+            "observer_error_below_tolerance_after_5s": ok["FTAC"]
+            and observer_error is not None
+            and observer_error < OBSERVER_TOLERANCE,
         }
     return out
 
@@ -370,7 +395,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
     (`"paper"`, `"admissible"`) and controller (`"FTAC"`, `"FT"`, `"PD"`): `max_abs_omega`
     [rad/s], `sigma_settle_time` ($\\|\\sigma\\| < 10^{-3}$ from then on, s) and the same at
     1e-2 and 1e-4, `peak_torque` [N m] (with the crossing spike; `peak_torque_after_0.1s`
-    without), `constraint_violated` (some saved $|\\omega_i| \\ge M$),
+    without), `constraint_violated` (some saved $|\\omega_i| \\ge M$ or non-finite),
     `admissible_initial_state`, barrier ratios, `observer_error_after_5s` [N m],
     `observer_convergence_time` (to 2e-4 N m), `observer_bias_after_5s` (the largest
     0.1 s moving average of $|\\hat d_i - d_i|$ after 5 s, N m: the estimate's bias without
@@ -421,18 +446,10 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
             "dt": MC_DT,
             "sigma_max": MC_SIGMA_MAX,
             "barrier_ratio_max": MC_RATIO_MAX,
-            **{
-                name: {
-                    "violations": int(np.sum(np.asarray(mc[name]["violated"]))),
-                    "violation_fraction": float(np.mean(np.asarray(mc[name]["violated"]))),
-                    "largest_abs_omega": float(np.max(np.asarray(mc[name]["max_abs_omega"]))),
-                    "unsuccessful_results": int(np.sum(np.asarray(mc[name]["status"]) != 0)),
-                }
-                for name in ("FTAC", "FT")
-            },
+            **{name: monte_carlo_summary(mc[name]) for name in ("FTAC", "FT")},
         }
     _write_figures(out, trajs, mc)
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    write_json(out / "metrics.json", metrics)
     return metrics
 
 
@@ -511,10 +528,16 @@ def _write_figures(out: pathlib.Path, trajs: dict[str, Trajectory], mc: dict | N
         if mc is None:
             return
         fig, ax = plt.subplots(figsize=(7, 3.2), layout="constrained")
-        bins = np.linspace(0, max(float(np.max(np.asarray(mc["FT"]["max_abs_omega"]))), 0.5), 41)
+        # Only finite peaks are histogrammed (a diverged sample's NaN made the bins NaN);
+        # the diverged samples are counted in the legend and in metrics.json's violations.
+        peaks = {n: np.max(np.asarray(mc[n]["max_abs_omega"]), axis=1) for n in ("FTAC", "FT")}
+        finite = {n: p[np.isfinite(p)] for n, p in peaks.items()}
+        top = max([0.5, *(float(p.max()) for p in finite.values() if p.size)])
+        bins = np.linspace(0, top, 41)
         for name in ("FTAC", "FT"):
-            peaks = np.max(np.asarray(mc[name]["max_abs_omega"]), axis=1)
-            ax.hist(peaks, bins=bins, alpha=0.6, color=colors[name], label=name)
+            diverged = peaks[name].size - finite[name].size
+            label = f"{name} ({diverged} non-finite, not shown)" if diverged else name
+            ax.hist(finite[name], bins=bins, alpha=0.6, color=colors[name], label=label)
         ax.axvline(RATE_LIMIT, color="k", ls="--", lw=0.8)
         ax.set_xlabel("$\\max_{t,i} |\\omega_i(t)|$ [rad/s]")
         ax.set_ylabel("samples")

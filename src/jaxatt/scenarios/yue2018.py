@@ -35,7 +35,6 @@ With the printed $\kappa_1, \kappa_2$ the surface alone needs hundreds of second
 hold with them.
 """
 
-import json
 import math
 import pathlib
 
@@ -51,6 +50,7 @@ from ..references import ConstantPose
 from ..rotations import quat_normalize
 from ..signals import AbstractSignal, Pulse, Sinusoid
 from ..simulation import ClosedLoop, EnergyMeter, Trajectory, simulate
+from ._io import write_json
 from ._protocol import Scenario
 
 
@@ -329,7 +329,7 @@ def reproduce(out_dir, *, short: bool = False, progress: bool = False) -> dict:
         m["claims"] = claims(m)
         metrics[name] = m
     _write_figures(out, trajs)
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    write_json(out / "metrics.json", metrics)
     return metrics
 
 

@@ -36,7 +36,6 @@ every `FRACTIONAL_SAVE_EVERY` steps for PD$^\alpha$, whose saved state holds its
 closed form of the reaching law and its forward-Euler (held control) value.
 """
 
-import json
 import math
 import pathlib
 
@@ -52,6 +51,7 @@ from ..references import ConstantPosition
 from ..signals import Sinusoid
 from ..simulation import ClosedLoop, EnergyMeter, Trajectory, ZeroOrderHold, simulate
 from ..sliding import PDSurface
+from ._io import write_json
 from ._protocol import Scenario
 
 
@@ -291,7 +291,7 @@ def reproduce(out_dir, *, short: bool = False, progress: bool = False) -> dict:
             print("[zhang2017] alpha study")
         metrics["alpha_study"] = alpha_study()
     _write_figures(out, trajs)
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    write_json(out / "metrics.json", metrics)
     return metrics
 
 

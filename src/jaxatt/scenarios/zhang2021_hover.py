@@ -52,7 +52,6 @@ matters:
     reported too (`*_norm2`).
 """
 
-import json
 import pathlib
 
 import jax
@@ -66,7 +65,8 @@ from ..performance import ExponentialPerformance, FiniteTimePerformance
 from ..plants import CoupledAttitudeOrbit, RelativePoseModel, RelativePoseState
 from ..reaching import ConstantRate, Saturation
 from ..signals import Sinusoid, Sum
-from ..simulation import ClosedLoop, Simulation, Trajectory, simulate
+from ..simulation import ClosedLoop, Simulation, Status, Trajectory, simulate
+from ._io import write_json
 from ._protocol import Scenario
 
 
@@ -297,8 +297,9 @@ def metrics(traj: Trajectory) -> dict:
 
     Settling times on the infinity norm (decision 10) and the 2-norm; peaks of the commanded
     force and torque per component; envelope violations (saved samples where some
-    $|e_i| \\ge \\rho_i$; 0 for the linear SMC, which has no envelope) and the minimum margin
-    $\\min_{t,i}(\\rho_i - |e_i|)$ (None without an envelope); the sample's status.
+    $|e_i| \\ge \\rho_i$ or a margin is not finite; 0 for the linear SMC, which has no
+    envelope) and the minimum margin $\\min_{t,i}(\\rho_i - |e_i|)$ (None without an envelope);
+    the sample's status.
     """
     ts = traj.ts
     inf_norm = lambda x: jnp.max(jnp.abs(x), axis=-1)
@@ -314,7 +315,8 @@ def metrics(traj: Trajectory) -> dict:
     out["overshoot_x"] = _overshoot(traj.signals["position_error"][:, 0])
     if "envelope_margin" in traj.signals:
         margin = traj.signals["envelope_margin"]
-        out["envelope_violations"] = jnp.sum(jnp.any(margin <= 0, axis=-1))
+        # `~(margin > 0)`, not `margin <= 0`: a NaN margin (a diverged run) is a violation.
+        out["envelope_violations"] = jnp.sum(jnp.any(~(margin > 0), axis=-1))
         out["min_envelope_margin"] = jnp.min(margin)
     else:
         out["envelope_violations"] = jnp.array(0)
@@ -348,21 +350,33 @@ def claims(metrics: dict) -> dict:
 
     `linear_slower_than_ppc[group]` and `ppc_slower_than_finite_time[group]` compare the
     infinity-norm settling times (an unsettled controller counts as infinitely slow);
-    `x_overshoot_reduced_by_ppc` compares the x-position overshoot.
+    `x_overshoot_reduced_by_ppc` compares the x-position overshoot. A claim holds only if
+    every run it is about has status `successful`: a diverged run, or one stopped by an
+    envelope violation between saved samples, never supports one.
     """
 
     def t(name, group):
         v = metrics[name][f"settle_time_{group}"]
         return float("inf") if v is None else v
 
+    def ok(*names):
+        return all(metrics[n]["status"] == Status.successful for n in names)
+
+    def smaller(a, b):  # None (a non-finite overshoot) never compares as smaller
+        return a is not None and b is not None and a < b
+
     return {
-        "linear_slower_than_ppc": {g: t("linear_smc", g) > t("ppc", g) for g in GROUPS},
-        "ppc_slower_than_finite_time": {g: t("ppc", g) > t("finite_time_ppf", g) for g in GROUPS},
-        "x_overshoot_reduced_by_ppc": metrics["ppc"]["overshoot_x"]
-        < metrics["linear_smc"]["overshoot_x"],
-        "envelopes_respected": all(
-            metrics[n]["envelope_violations"] == 0 for n in ("ppc", "finite_time_ppf")
-        ),
+        "linear_slower_than_ppc": {
+            g: ok("linear_smc", "ppc") and t("linear_smc", g) > t("ppc", g) for g in GROUPS
+        },
+        "ppc_slower_than_finite_time": {
+            g: ok("ppc", "finite_time_ppf") and t("ppc", g) > t("finite_time_ppf", g)
+            for g in GROUPS
+        },
+        "x_overshoot_reduced_by_ppc": ok("linear_smc", "ppc")
+        and smaller(metrics["ppc"]["overshoot_x"], metrics["linear_smc"]["overshoot_x"]),
+        "envelopes_respected": ok("ppc", "finite_time_ppf")
+        and all(metrics[n]["envelope_violations"] == 0 for n in ("ppc", "finite_time_ppf")),
     }
 
 
@@ -401,7 +415,7 @@ def reproduce(out_dir, *, short: bool = False, progress: bool = False) -> dict:
         "orbit_rate": orbit_rate(),
         "short": short,
     }
-    (out_dir / "metrics.json").write_text(json.dumps(result, indent=2))
+    write_json(out_dir / "metrics.json", result)
     for stem, fig in figures(trajectories).items():
         fig.savefig(out_dir / f"{stem}.png")
         plt.close(fig)

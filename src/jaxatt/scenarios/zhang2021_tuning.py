@@ -49,6 +49,7 @@ from ..metrics import Absolute, ConvergenceTime, MaxAbs, Peak, SettlingTime
 from ..plants import RelativePoseState
 from ..simulation import ClosedLoop
 from . import zhang2021_hover as hover
+from ._io import write_json
 from ._protocol import TuningProblem
 
 
@@ -219,7 +220,7 @@ def run(
     b = report["validation"]["before"]["mean_objective_time"]
     a = report["validation"]["after"]["mean_objective_time"]
     report["objective_time_reduction"] = 1 - a / b
-    (out / "tuning.json").write_text(json.dumps(report, indent=2))
+    write_json(out / "tuning.json", report)
     lines = [
         f"# Tuning Zhang 2021's {problem} envelopes and surface gains with autodiff",
         "",

@@ -1,0 +1,36 @@
+"""The scenarios' one JSON writer: strict JSON, non-finite floats as null."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from jaxatt.scenarios import _io
+
+
+def test_write_json_turns_nan_and_inf_into_null(tmp_path):
+    tree = {
+        "nan": math.nan,
+        "inf": math.inf,
+        "values": [1.5, -math.inf, np.float64("nan"), np.float32(2.0), np.int64(3)],
+        "array": np.array([0.5, np.inf]),
+        "nested": {"ok": True, "none": None, "t": (np.nan, "x")},
+    }
+    _io.write_json(tmp_path / "m.json", tree)
+    text = (tmp_path / "m.json").read_text()
+    assert "NaN" not in text and "Infinity" not in text
+    loaded = json.loads(text, parse_constant=lambda c: pytest.fail(f"non-JSON constant {c}"))
+    assert loaded == {
+        "nan": None,
+        "inf": None,
+        "values": [1.5, None, None, 2.0, 3],
+        "array": [0.5, None],
+        "nested": {"ok": True, "none": None, "t": [None, "x"]},
+    }
+
+
+def test_write_json_refuses_a_nan_that_escapes_the_sanitizer(tmp_path, monkeypatch):
+    monkeypatch.setattr(_io, "json_safe", lambda tree: tree)
+    with pytest.raises(ValueError):
+        _io.write_json(tmp_path / "m.json", {"x": math.nan})
