@@ -32,11 +32,51 @@ def test_plot_envelope_draws_median_and_band_and_skips_nonfinite():
     assert isinstance(ax, Axes)
     (line,) = ax.get_lines()
     expected = np.median(np.delete(values, [3, 4], axis=0), axis=0)
-    # At t > 0.4 the inf sample drops out; before it the median includes it.
-    np.testing.assert_allclose(line.get_ydata()[6:], expected[6:], rtol=1e-12)
+    # Both samples are left out at every time, also before the inf sample diverges.
+    np.testing.assert_allclose(line.get_ydata(), expected, rtol=1e-12)
     assert len(ax.collections) == 1  # the quantile band
     assert ax.get_yscale() == "log"
-    assert "M1" in _legend_texts(ax)
+    assert _legend_texts(ax)[0] == "M1 (2 of 20 failed or non-finite, excluded)"
+
+
+def _band_edges_at(ax, t):
+    vertices = ax.collections[0].get_paths()[0].vertices
+    at_t = vertices[np.isclose(vertices[:, 0], t), 1]
+    return at_t.min(), at_t.max()
+
+
+def test_plot_envelope_states_and_excludes_diverged_and_failed_samples():
+    # Samples 0 and 1 decay, 2 diverges to inf after t = 0.5, 3 fails (NaN after t = 0.3).
+    ts = np.linspace(0.0, 1.0, 11)
+    values = np.vstack([np.exp(-5 * ts), np.exp(-6 * ts), 0.5 * np.exp(3 * ts), np.exp(-4 * ts)])
+    values[2, ts > 0.5] = np.inf
+    values[3, ts > 0.3] = np.nan
+    ax = plot.plot_envelope(ts, values, label="M1", log=True)
+    assert _legend_texts(ax) == ["M1 (2 of 4 failed or non-finite, excluded)", "M1 5-95 %"]
+    kept = values[:2]
+    # The statistics are over the same two samples at every time, t = 0 included.
+    np.testing.assert_allclose(ax.get_lines()[0].get_ydata(), np.median(kept, axis=0))
+    low, high = np.quantile(kept, [0.05, 0.95], axis=0)
+    for k in (0, 10):
+        np.testing.assert_allclose(_band_edges_at(ax, ts[k]), (low[k], high[k]))
+
+
+def test_plot_envelope_excludes_unsuccessful_samples_with_finite_values():
+    ts = np.linspace(0.0, 1.0, 5)
+    values = np.vstack([np.exp(-ts), np.exp(-2 * ts), np.full(5, 10.0)])
+    # Sample 2 violated a constraint: its values stay finite, but it did not succeed.
+    ax = plot.plot_envelope(ts, values, successful=np.array([True, True, False]))
+    assert _legend_texts(ax)[0] == "median (1 of 3 failed or non-finite, excluded)"
+    np.testing.assert_allclose(ax.get_lines()[0].get_ydata(), np.median(values[:2], axis=0))
+    # Nothing excluded: the legend is the plain label.
+    ax = plot.plot_envelope(ts, values, label="M2", successful=np.ones(3, bool))
+    assert _legend_texts(ax)[0] == "M2"
+    # Every sample excluded: nothing is drawn, and the legend says so.
+    ax = plot.plot_envelope(ts, values, label="M3", successful=np.zeros(3, bool))
+    assert _legend_texts(ax)[0] == "M3 (3 of 3 failed or non-finite, excluded)"
+    assert np.isnan(ax.get_lines()[0].get_ydata()).all()
+    with pytest.raises(ValueError, match="successful"):
+        plot.plot_envelope(ts, values, successful=np.ones(2, bool))
 
 
 def test_plot_envelope_accepts_batched_times_and_rejects_bad_shapes():
@@ -81,3 +121,15 @@ def test_plot_scatter_vs_initial_error_marks_unsettled_samples():
     assert _legend_texts(ax) == ["M1 (2 not settled)"]
     with pytest.raises(ValueError, match="same length"):
         plot.plot_scatter_vs_initial_error(angle, values[:3])
+
+
+def test_plot_scatter_vs_initial_error_counts_unsuccessful_samples_as_failed():
+    angle = np.radians([10.0, 20.0, 30.0, 40.0])
+    values = np.array([1.0, 2.0, np.inf, 1.5])  # sample 3 failed with a finite value
+    ax = plot.plot_scatter_vs_initial_error(
+        angle, values, label="M1", successful=np.array([True, True, True, False])
+    )
+    finite, crosses = ax.collections
+    np.testing.assert_allclose(finite.get_offsets()[:, 0], [10.0, 20.0])
+    np.testing.assert_allclose(crosses.get_offsets()[:, 0], [30.0, 40.0])
+    assert _legend_texts(ax) == ["M1 (1 failed, 1 not settled)"]

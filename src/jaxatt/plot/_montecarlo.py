@@ -1,8 +1,7 @@
 """Monte Carlo figures: envelopes of a batch of time series, distributions of a metric, and a
 metric against the initial error."""
 
-import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 
 import matplotlib.transforms as mtransforms
 import numpy as np
@@ -18,12 +17,16 @@ def _host(values: ArrayLike) -> np.ndarray:
     return to_host(values).astype(float)
 
 
-def _quantiles(values: np.ndarray, q: Sequence[float]) -> np.ndarray:
-    finite = np.where(np.isfinite(values), values, np.nan)
-    with warnings.catch_warnings():
-        # Times at which every sample is non-finite give NaN (nothing drawn), not a warning.
-        warnings.simplefilter("ignore", RuntimeWarning)
-        return np.nanquantile(finite, q, axis=0)
+def _successful_mask(successful: ArrayLike | None, n: int, name: str) -> np.ndarray:
+    if successful is None:
+        return np.ones(n, bool)
+    mask = np.asarray(successful).astype(bool).reshape(-1)
+    if mask.shape != (n,):
+        raise ValueError(
+            f"{name}: `successful` must have one entry per sample, shape ({n},), got shape "
+            f"{np.shape(successful)}."
+        )
+    return mask
 
 
 def plot_envelope(
@@ -34,12 +37,19 @@ def plot_envelope(
     quantiles: tuple[float, float] = (0.05, 0.95),
     label: str | None = None,
     log: bool = False,
+    successful: ArrayLike | None = None,
 ) -> Axes:
-    """Median and a quantile band of a batch of time series.
+    r"""Median and a quantile band of a batch of time series.
 
-    At each time the median and the two `quantiles` are taken over the samples whose value is
-    finite (failed samples drop out where they are NaN/inf); the band is filled in the median
-    line's color.
+    The statistics are taken over one fixed set of kept samples at every time: sample $i$ is
+    excluded (at all times, not only where it is non-finite) when it failed
+    (`successful[i]` is false, e.g. a `constraint_violated` sample whose values stay finite)
+    or when $v_i(t_k)$ is NaN or $\pm\infty$ at any saved time $t_k$ (diverged or failed).
+    With $K$ the kept samples, the line is $\operatorname{median}_{i \in K} v_i(t_k)$ and the
+    band, in the line's color, spans the `quantiles` of $\{v_i(t_k)\}_{i \in K}$, in the
+    units of `values`. Excluded samples are not in the figure's statistics, so the legend says
+    how many there are: "M1 (2 of 4 failed or non-finite, excluded)"; when every sample is
+    excluded nothing is drawn but the legend entry.
 
     **Arguments:**
     - `ts`: times [s], shape `(T,)` (or the batched `traj.ts` of shape `(n, T)`, whose first
@@ -49,6 +59,9 @@ def plot_envelope(
     - `quantiles`: lower and upper probabilities of the band, in [0, 1].
     - `label`: legend entry of the median line (the band is labelled with the quantiles).
     - `log`: logarithmic y axis.
+    - `successful`: optional boolean mask of shape `(n,)`, e.g. `trajs.successful` or
+      `result.status == 0` of a [`jaxatt.montecarlo.MonteCarloResult`][]; false samples are
+      excluded and counted as failed. Without it only non-finite samples are excluded.
 
     **Returns:** the axes.
     """
@@ -67,9 +80,18 @@ def plot_envelope(
             f"plot_envelope: `quantiles` must be (low, high) with 0 <= low <= high <= 1, got "
             f"{quantiles}."
         )
-    q_low, median, q_high = _quantiles(values, [low, 0.5, high])
+    n = values.shape[0]
+    keep = _successful_mask(successful, n, "plot_envelope") & np.isfinite(values).all(axis=1)
+    if keep.any():
+        q_low, median, q_high = np.quantile(values[keep], [low, 0.5, high], axis=0)
+    else:
+        q_low = median = q_high = np.full(ts.shape, np.nan)
+    name = label if label is not None else "median"
+    excluded = int(n - keep.sum())
+    if excluded:
+        name = f"{name} ({excluded} of {n} failed or non-finite, excluded)"
     ax = _new_axes(ax)
-    (line,) = ax.plot(ts, median, lw=1.5, label=label if label is not None else "median")
+    (line,) = ax.plot(ts, median, lw=1.5, label=name)
     band = f"{100 * low:g}-{100 * high:g} %"
     ax.fill_between(
         ts,
@@ -180,11 +202,14 @@ def plot_scatter_vs_initial_error(
     ax: Axes | None = None,
     label: str | None = None,
     ylabel: str = "settling time [s]",
+    successful: ArrayLike | None = None,
 ) -> Axes:
     """Scatter of a per-sample metric against the initial attitude-error angle.
 
-    Samples with a non-finite value (not settled, failed) are drawn as crosses along the top
-    edge of the axes and counted in the legend.
+    Samples with a non-finite value (not settled, failed) and, when `successful` is given,
+    failed samples whatever their value are drawn as crosses along the top edge of the axes
+    and counted in the legend ("M1 (1 failed, 2 not settled)"; without `successful` every
+    non-finite value is counted as not settled).
 
     **Arguments:**
     - `initial_angle`: initial error angle [rad], shape `(n,)` (plotted in degrees), e.g.
@@ -194,6 +219,8 @@ def plot_scatter_vs_initial_error(
     - `ax`: axes to draw on; a new figure when `None`.
     - `label`: legend entry.
     - `ylabel`: the y-axis label.
+    - `successful`: optional boolean mask of shape `(n,)`, e.g. `result.status == 0` of a
+      [`jaxatt.montecarlo.MonteCarloResult`][]; false samples are counted as failed.
 
     **Returns:** the axes.
     """
@@ -204,15 +231,16 @@ def plot_scatter_vs_initial_error(
             "plot_scatter_vs_initial_error: `initial_angle` and `values` must have the same "
             f"length, got {angle.shape[0]} and {values.shape[0]}."
         )
+    failed = ~_successful_mask(successful, values.shape[0], "plot_scatter_vs_initial_error")
     ax = _new_axes(ax)
-    finite = np.isfinite(values)
+    finite = np.isfinite(values) & ~failed
     name = label if label is not None else "samples"
     points = ax.scatter(
         angle[finite],
         values[finite],
         s=10,
         alpha=0.7,
-        label=_legend_label(name, values, "not settled"),
+        label=_legend_label(name, values, "not settled", failed),
     )
     if not finite.all():
         top = mtransforms.blended_transform_factory(ax.transData, ax.transAxes)

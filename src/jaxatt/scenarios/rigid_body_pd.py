@@ -131,8 +131,18 @@ def reproduce(
         fig, ax = plt.subplots(figsize=(7, 3.5), layout="constrained")
         errors = np.linalg.norm(np.asarray(trajs.signals["attitude_error"]), axis=-1)
         ts = np.asarray(trajs.ts[0])
-        ax.semilogy(ts, errors.T, color="C0", alpha=0.25, lw=0.8)
-        ax.semilogy(ts, np.median(errors, axis=0), color="k", lw=1.5, label="median")
+        # The median is over one fixed set of samples at every time: failed samples and
+        # samples non-finite at any time are left out (drawn in red) and counted in the legend.
+        keep = ok & np.isfinite(errors).all(axis=1)
+        dropped, total = int((~keep).sum()), keep.size
+        ax.semilogy(ts, errors[keep].T, color="C0", alpha=0.25, lw=0.8)
+        median_label = "median"
+        if dropped:
+            ax.semilogy(ts, errors[~keep].T, color="C3", alpha=0.6, lw=0.8)
+            ax.plot([], [], color="C3", lw=0.8, label=f"failed or non-finite ({dropped})")
+            median_label += f" ({dropped} of {total} failed or non-finite, excluded)"
+        median = np.median(errors[keep], axis=0) if keep.any() else np.full(ts.shape, np.nan)
+        ax.semilogy(ts, median, color="k", lw=1.5, label=median_label)
         ax.axhline(SETTLING_TOLERANCE, color="C3", ls="--", lw=1, label="tolerance")
         ax.set_xlabel("t [s]")
         ax.set_ylabel(r"$\|\sigma_e\|$")
