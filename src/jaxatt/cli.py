@@ -47,6 +47,7 @@ def _cmd_list(args: argparse.Namespace) -> int:
 
 def _run_scenario(name: str, out: pathlib.Path, short: bool) -> int:
     from .scenarios import REGISTRY
+    from .scenarios._io import json_safe
 
     if name not in REGISTRY:
         print(
@@ -58,7 +59,7 @@ def _run_scenario(name: str, out: pathlib.Path, short: bool) -> int:
     print(f"[jaxatt] {name}: compiling and simulating (float64)...", flush=True)
     metrics = REGISTRY[name].reproduce(out, short=short, progress=True)
     elapsed = time.perf_counter() - start
-    print(json.dumps(metrics, indent=2))
+    print(json.dumps(json_safe(metrics), indent=2, allow_nan=False))
     print(f"[jaxatt] done in {elapsed:.1f} s; figures and metrics.json written to {out.resolve()}")
     return 0
 
@@ -99,6 +100,7 @@ def _settling(stats: dict) -> str:
 
 def _cmd_tune(args: argparse.Namespace) -> int:
     from .scenarios import TUNING
+    from .scenarios._io import json_safe
 
     if args.name not in TUNING:
         print(
@@ -120,7 +122,11 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     }
     report = TUNING[args.name].run(out, resume=args.resume, progress=True, **sizes)
     print(
-        json.dumps({k: report[k] for k in ("gains_before", "gains_after", "validation")}, indent=2)
+        json.dumps(
+            json_safe({k: report[k] for k in ("gains_before", "gains_after", "validation")}),
+            indent=2,
+            allow_nan=False,
+        )
     )
     print(f"[jaxatt] report written to {(out / 'report.md').resolve()}")
     return 0

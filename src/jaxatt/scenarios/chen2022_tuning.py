@@ -17,7 +17,6 @@ initial attitudes within 60 deg of the reference with rates up to 0.05 rad/s per
 - **Validation:** a fresh held-out batch drawn with another key.
 """
 
-import json
 import pathlib
 
 import jax.random as jr
@@ -29,6 +28,7 @@ from ..montecarlo import MonteCarloResult, quaternion_states
 from ..plants import QuaternionState
 from ..simulation import ClosedLoop
 from . import chen2022_two_phase_power as chen
+from ._io import write_json
 from ._protocol import TuningProblem
 
 
@@ -218,7 +218,7 @@ def run(
         report["validation"]["before"], report["validation"]["after"]
     )
     _write_report(out, report, result.losses, cdfs)
-    (out / "tuning.json").write_text(json.dumps(report, indent=2))
+    write_json(out / "tuning.json", report)
     return report
 
 

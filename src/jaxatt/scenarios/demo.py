@@ -8,7 +8,6 @@
 4. Write `report.md` with the numbers measured in this run, next to the figures.
 """
 
-import json
 import pathlib
 import time
 
@@ -17,6 +16,7 @@ import numpy as np
 
 from ..metrics import AbstractMetric, Chattering, Peak, SettlingTime
 from . import chen2022_tuning, chen2022_two_phase_power as chen
+from ._io import write_json
 
 
 MC_SAMPLES = 128
@@ -109,7 +109,7 @@ def run(
         },
         "timings_s": timings,
     }
-    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float))
+    write_json(out / "summary.json", summary)
     _write_report(out, summary, n, tuning)
     return summary
 

@@ -133,6 +133,7 @@ def reproduce(
         ts = np.asarray(trajs.ts[0])
         # The median is over one fixed set of samples at every time: failed samples and
         # samples non-finite at any time are left out (drawn in red) and counted in the legend.
+        ok = np.asarray(trajs.successful, dtype=bool)
         keep = ok & np.isfinite(errors).all(axis=1)
         dropped, total = int((~keep).sum()), keep.size
         ax.semilogy(ts, errors[keep].T, color="C0", alpha=0.25, lw=0.8)
