@@ -128,6 +128,8 @@ def _cmd_tune(args: argparse.Namespace) -> int:
             allow_nan=False,
         )
     )
+    if report.get("stopped"):
+        print(f"[jaxatt] tuning stopped early: {report['stopped']}")
     print(f"[jaxatt] report written to {(out / 'report.md').resolve()}")
     return 0
 

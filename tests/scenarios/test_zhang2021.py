@@ -161,3 +161,54 @@ def test_claims_need_successful_runs():
     assert c["envelopes_respected"] and c["x_overshoot_reduced_by_ppc"]
     assert all(c["linear_slower_than_ppc"].values())
     assert all(c["ppc_slower_than_finite_time"].values())
+
+
+def test_the_tuning_report_says_when_tuning_stopped_and_never_scores_a_failure(
+    tmp_path, monkeypatch
+):
+    # Regression (review): a run stopped at step 12 of 30 was reported as "12 Adam steps"
+    # with no word of the stop; a failed held-out sample made the tuned mean objective time
+    # inf and the "reduction" -inf (or 1.0, "100 %", had the paper's gains failed).
+    from jaxatt import tune as tuning
+    from jaxatt.scenarios import zhang2021_tuning as zt
+
+    def held_out(times, status, objective):
+        ok = np.asarray(status) == 0
+        aux = {f"settle_time_{g}": np.asarray(times, float) for g in hover.GROUPS}
+        return aux | {
+            "objective_time": np.asarray(objective, float),
+            "peak_force": np.where(ok, 5.0, np.nan),
+            "peak_torque": np.where(ok, 0.1, np.nan),
+            "envelope_usage": np.where(ok, 0.9, np.nan),
+            "status": np.asarray(status),
+        }
+
+    before = held_out([100.0] * 4, [0] * 4, [400.0] * 4)
+    after = held_out([50.0, 50.0, np.inf, np.inf], [0, 0, 0, 2], [200.0, 200.0, 300.0, np.inf])
+    stopped = "tune: at step 13, the loss is inf."
+    gains = {"rate": np.ones(4), "c": np.ones(6)}
+
+    def fake_tune(start, parameters, objective, inputs, **kwargs):
+        losses = np.linspace(400.0, 300.0, 12)
+        return tuning.TuneResult(
+            module="tuned",
+            gains=gains,
+            initial_gains=gains,
+            losses=losses,
+            steps=12,
+            stopped=stopped,
+        )
+
+    monkeypatch.setattr(tuning, "tune", fake_tune)
+    monkeypatch.setattr(
+        tuning, "evaluate", lambda module, obj, x: (None, after if module == "tuned" else before)
+    )
+    report = zt.run(tmp_path, samples=4, steps=30, validation_samples=4)
+    assert report["objective_time_reduction"] is None
+    assert report["validation"]["after"]["violations"] == 1
+    assert report["validation"]["after"]["mean_objective_time"] is None
+    assert report["validation"]["after"]["max_peak_force"] == 5.0  # over successful samples
+    text = (tmp_path / "report.md").read_text()
+    assert "12 of 30 Adam steps" in text and f"**Stopped early:** {stopped}" in text
+    assert "not compared" in text and "n/a" not in text
+    assert "NaN" not in (tmp_path / "tuning.json").read_text()
