@@ -1,4 +1,7 @@
-"""The one writer of the scenarios' JSON reports (`metrics.json`, `tuning.json`)."""
+"""The one writer of the scenarios' JSON reports (`metrics.json`, `tuning.json`).
+
+A scenario returns its metrics as computed (an unsettled time is `inf`); the file holds their
+JSON-safe form, [`json_safe`][] of the returned dict (`inf` and NaN as `null`)."""
 
 import json
 import math
