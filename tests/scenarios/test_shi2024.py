@@ -105,3 +105,26 @@ def test_bad_variants_and_tuning_sizes_are_refused(tmp_path):
         shi2024_tuning.run(tmp_path, samples=256)
     with pytest.raises(ValueError, match="weight"):
         shi2024_tuning.VibrationObjective(-1.0)
+
+
+def test_a_failed_case_supports_no_claim():
+    # Regression: a failed case 2 (its settle times never: None) was "slower than case 1".
+    from jaxatt.scenarios import shi2024
+
+    run = {
+        "attitude_settle_time_1e-2": 40.0,
+        "rate_settle_time_1e-3": 50.0,
+        "attitude_settle_time_1e-3": 55.0,
+        "overshoot": [0.1, 0.1, 0.1],
+        "peak_slosh": 1.0,
+        "peak_modal_n1": 1.0,
+        "result": "successful",
+    }
+    smoothed = run | {"overshoot": [0.01] * 3, "peak_slosh": 0.1, "peak_modal_n1": 0.1}
+    failed = {k: None for k in run if "settle" in k} | {"result": "nonfinite_state"}
+    claims = shi2024.claims(
+        {"case1_no_smoother": run, "case1_smoother": smoothed, "case2": run | failed}
+    )
+    assert not claims["case2_slower_than_case1_attitude_1e-3"]
+    assert not claims["case2_slower_than_case1_rate_1e-3"]
+    assert claims["smoother_halves_slosh_literal"] and claims["smoother_reduces_overshoot_literal"]

@@ -78,3 +78,18 @@ def test_terminal_surface_singularity_is_guarded():
 def test_singular_surface_exponent_outside_the_unit_interval_is_refused(exponent):
     with pytest.raises(ValueError, match=r"`exponent` must lie in \(0.0, 1.0\)"):
         AdaptiveTerminalSixDof(**dict(yue2018.PRINTED_GAINS, exponent=exponent))
+
+
+def test_a_failed_run_supports_no_claim():
+    # A run that failed with its last samples small (a frozen or stopped state) is not one that
+    # converged.
+    from jaxatt.scenarios import yue2018
+
+    metrics = {
+        "position_norm_at_50s": 0.01,
+        "attitude_angle_deg_at_35s": 0.1,
+        "final_position_norm": 0.01,
+        "position_peak_during_pulses": 0.05,
+    }
+    assert all(yue2018.claims(metrics | {"status": 0}).values())
+    assert not any(yue2018.claims(metrics | {"status": 2}).values())

@@ -49,7 +49,7 @@ from ..plants import SixDof, SixDofState
 from ..references import ConstantPose
 from ..rotations import quat_normalize
 from ..signals import AbstractSignal, Pulse, Sinusoid
-from ..simulation import ClosedLoop, EnergyMeter, Trajectory, simulate
+from ..simulation import ClosedLoop, EnergyMeter, Status, Trajectory, simulate
 from ._io import write_json
 from ._protocol import Scenario
 
@@ -291,12 +291,15 @@ def trajectory_metrics(traj: Trajectory) -> dict:
 
 
 def claims(m: dict) -> dict:
+    """The paper's claims on one run's metrics; none holds for a run that did not end
+    successfully (its samples after the failure are not a converged state)."""
+    ok = m["status"] == int(Status.successful)
     out = {
-        "position_converged_by_50s (|R| < 0.1 m)": m["position_norm_at_50s"] < 0.1,
-        "attitude_converged_by_35s (angle < 1 deg)": m["attitude_angle_deg_at_35s"] < 1.0,
+        "position_converged_by_50s (|R| < 0.1 m)": ok and m["position_norm_at_50s"] < 0.1,
+        "attitude_converged_by_35s (angle < 1 deg)": ok and m["attitude_angle_deg_at_35s"] < 1.0,
     }
     if "position_peak_during_pulses" in m:
-        out["pulses_rejected (|R(250)| < 0.1 m)"] = m["final_position_norm"] < 0.1
+        out["pulses_rejected (|R(250)| < 0.1 m)"] = ok and m["final_position_norm"] < 0.1
     return out
 
 

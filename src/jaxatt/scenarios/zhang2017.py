@@ -49,7 +49,7 @@ from ..plants import RelativeOrbit, RelativeOrbitState
 from ..reaching import AbstractSwitching, Exponential, Sign
 from ..references import ConstantPosition
 from ..signals import Sinusoid
-from ..simulation import ClosedLoop, EnergyMeter, Trajectory, ZeroOrderHold, simulate
+from ..simulation import ClosedLoop, EnergyMeter, Status, Trajectory, ZeroOrderHold, simulate
 from ..sliding import PDSurface
 from ._io import write_json
 from ._protocol import Scenario
@@ -236,14 +236,18 @@ def claims(metrics: dict) -> dict:
     out = {}
     for case in CASES:
         pd, fr = metrics[case]["pd"], metrics[case]["pd_alpha"]
+        # A comparison holds only if both runs ended successfully (a failed PD run's infinite
+        # time would otherwise make PD^alpha "need less control time").
+        ok = pd["status"] == int(Status.successful) and fr["status"] == int(Status.successful)
         ratio = t(fr["settle_time_1m"]) / t(pd["settle_time_1m"])
         out[case] = {
-            "both_converge_to_1m": math.isfinite(t(pd["settle_time_1m"]))
+            "both_converge_to_1m": ok
+            and math.isfinite(t(pd["settle_time_1m"]))
             and math.isfinite(t(fr["settle_time_1m"])),
             "settle_time_ratio_pd_alpha_over_pd": ratio,
-            "pd_alpha_needs_less_control_time": ratio < 1.0,
-            "pd_alpha_needs_much_less_control_time (ratio < 0.5)": ratio < 0.5,
-            "pd_alpha_consumes_more_energy": fr["energy"] > pd["energy"],
+            "pd_alpha_needs_less_control_time": ok and ratio < 1.0,
+            "pd_alpha_needs_much_less_control_time (ratio < 0.5)": ok and ratio < 0.5,
+            "pd_alpha_consumes_more_energy": ok and fr["energy"] > pd["energy"],
             "energy_ratio_pd_alpha_over_pd": fr["energy"] / pd["energy"],
         }
     return out
