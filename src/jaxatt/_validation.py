@@ -22,6 +22,7 @@ copies share their compiled programs.
 import contextlib
 import contextvars
 import functools
+import numbers
 from collections.abc import Callable
 from types import ModuleType
 
@@ -183,6 +184,27 @@ def check_scalar(where: str, name: str, value: ArrayLike) -> Array:
     if arr.shape != ():
         raise ValueError(f"{where}: `{name}` must be a scalar, got shape {arr.shape}.")
     return arr
+
+
+def is_real_scalar(x) -> bool:
+    """A real number: a Python or NumPy real (not a bool) or a 0-d real array."""
+    if isinstance(x, (bool, np.bool_)):
+        return False
+    if isinstance(x, numbers.Real):
+        return True
+    dtype = getattr(x, "dtype", None)
+    return (
+        dtype is not None
+        and getattr(x, "ndim", 1) == 0
+        and np.issubdtype(dtype, np.number)
+        and not np.issubdtype(dtype, np.complexfloating)
+    )
+
+
+def check_positive_scalar(where: str, name: str, value: ArrayLike) -> Array:
+    """A positive scalar (a band, a span, a limit): a shape `(3,)` value would broadcast and
+    fail deep inside a computation, or silently give one result per entry."""
+    return check_positive(where, name, check_scalar(where, name, value))
 
 
 def check_less_than(where: str, low_name: str, low: Array, high_name: str, high: Array) -> None:

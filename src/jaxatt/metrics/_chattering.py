@@ -38,7 +38,8 @@ def in_window(t_from: Array, t_to: Array, start: Array, end: Array) -> Array:
     return (t_from >= start - slack_start) & (t_to <= end + slack_end)
 
 
-def _bound(where: str, name: str, value: RealScalarLike | None, default: float) -> Array:
+def window_bound(where: str, name: str, value: RealScalarLike | None, default: float) -> Array:
+    """A window bound [s]: a scalar, not NaN when concrete; `default` for `None`."""
     if value is None:
         return jnp.asarray(default)
     if isinstance(value, (str, bytes)):
@@ -101,8 +102,8 @@ def chattering(
     where = "chattering"
     u = as_signal(where, "u", u, 2, " For a single input pass u[:, None].")
     ts = as_times(where, ts, "u", u)
-    start = _bound(where, "t_start", t_start, -jnp.inf)
-    end = _bound(where, "t_end", t_end, jnp.inf)
+    start = window_bound(where, "t_start", t_start, -jnp.inf)
+    end = window_bound(where, "t_end", t_end, jnp.inf)
     if t_start is not None and t_end is not None:
         check_less_than(where, "t_start", start, "t_end", end)
     return _chattering(ts, u, start, end)

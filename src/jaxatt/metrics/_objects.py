@@ -37,9 +37,9 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float, PyTree
 
 from .._custom_types import RealScalarLike
-from .._validation import check, check_less_than, check_positive, check_scalar
+from .._validation import check_less_than, check_positive_scalar
 from ..numerics import amax, maximum, safe_norm
-from ._chattering import chattering, in_window
+from ._chattering import chattering, in_window, window_bound
 from ._effort import control_effort
 from ._settling import convergence_time, decay_extrapolation, settling_time, time_outside
 
@@ -205,9 +205,7 @@ class _AbstractBandTime(AbstractMetric):
     def __init__(self, signal: str, tolerance: RealScalarLike, norm: AbstractNorm | None = None):
         self.signal = str(signal)
         where = type(self).__name__
-        self.tolerance = check_positive(
-            where, "tolerance", check_scalar(where, "tolerance", tolerance)
-        )
+        self.tolerance = check_positive_scalar(where, "tolerance", tolerance)
         self.norm = Euclidean() if norm is None else norm
 
     @abc.abstractmethod
@@ -310,12 +308,10 @@ class ConvergenceTime(AbstractMetric):
     ):
         self.signal = str(signal)
         where = "ConvergenceTime"
-        self.tolerance = check_positive(
-            where, "tolerance", check_scalar(where, "tolerance", tolerance)
-        )
+        self.tolerance = check_positive_scalar(where, "tolerance", tolerance)
         self.norm = Euclidean() if norm is None else norm
         if window is not None:
-            window = check_positive(where, "window", check_scalar(where, "window", window))
+            window = check_positive_scalar(where, "window", window)
         self.window = window
 
     streams: ClassVar[bool] = True
@@ -453,12 +449,6 @@ class Effort(AbstractMetric):
         return total + 0.5 * (t_last - t_before) * power_last
 
 
-def _window_bound(name: str, value: RealScalarLike) -> Array:
-    """A window bound of [`Chattering`][]: a scalar of the default float dtype, not NaN."""
-    bound = check_scalar("Chattering", name, value).astype(jnp.result_type(float))
-    return check("Chattering", name, bound, lambda xp, x: ~xp.isnan(x), "must not be NaN")
-
-
 class Chattering(AbstractMetric):
     r"""Total variation of `signal` (default `"u"`) over $[t_{start}, t_{end}]$
     ([`chattering`][]); NaN for a failed sample.
@@ -486,8 +476,9 @@ class Chattering(AbstractMetric):
         end: RealScalarLike = float("inf"),
     ):
         self.signal = str(signal)
-        self.start = _window_bound("start", start)
-        self.end = _window_bound("end", end)
+        dtype = jnp.result_type(float)
+        self.start = window_bound("Chattering", "start", start, -jnp.inf).astype(dtype)
+        self.end = window_bound("Chattering", "end", end, jnp.inf).astype(dtype)
         check_less_than("Chattering", "start", self.start, "end", self.end)
 
     streams: ClassVar[bool] = True

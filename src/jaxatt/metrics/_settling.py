@@ -11,15 +11,9 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float, Real
 
 from .._custom_types import BoolScalar, RealScalarLike, Scalar
-from .._validation import check_positive, check_scalar
+from .._validation import check_positive_scalar
 from ..numerics import maximum
 from ._signals import as_signal, as_times, trapezoid
-
-
-def _positive_scalar(where: str, name: str, value: RealScalarLike) -> Array:
-    """A positive scalar (a band or a span): a shape `(3,)` band would broadcast against the
-    samples and fail deep inside the computation, or silently give one result per entry."""
-    return check_positive(where, name, check_scalar(where, name, value))
 
 
 def _last_above(x: Array, tol: Array) -> tuple[Array, Array]:
@@ -92,7 +86,7 @@ def settling_time(
     where = "settling_time"
     x = as_signal(where, "x", x, 1, " Pass a norm, e.g. jaxatt.numerics.safe_norm(e, axis=-1).")
     ts = as_times(where, ts, "x", x)
-    tol = _positive_scalar(where, "tol", tol)
+    tol = check_positive_scalar(where, "tol", tol)
     return _settling_time(ts, x, tol)
 
 
@@ -110,7 +104,7 @@ def settled(
     where = "settled"
     x = as_signal(where, "x", x, 1, " Pass a norm, e.g. jaxatt.numerics.safe_norm(e, axis=-1).")
     as_times(where, ts, "x", x)
-    tol = _positive_scalar(where, "tol", tol)
+    tol = check_positive_scalar(where, "tol", tol)
     return x[-1] <= tol
 
 
@@ -166,8 +160,8 @@ def soft_settling_time(
     where = "soft_settling_time"
     x = as_signal(where, "x", x, 1, " Pass a norm, e.g. jaxatt.numerics.safe_norm(e, axis=-1).")
     ts = as_times(where, ts, "x", x)
-    tol = _positive_scalar(where, "tol", tol)
-    width = _positive_scalar(where, "width", width)
+    tol = check_positive_scalar(where, "tol", tol)
+    width = check_positive_scalar(where, "width", width)
     return _soft_settling_time(ts, x, tol, width)
 
 
@@ -260,7 +254,7 @@ def time_outside(
     where = "time_outside"
     x = as_signal(where, "x", x, 1, " Pass a norm, e.g. jaxatt.numerics.safe_norm(e, axis=-1).")
     ts = as_times(where, ts, "x", x)
-    tol = _positive_scalar(where, "tol", tol)
+    tol = check_positive_scalar(where, "tol", tol)
     return _time_outside(ts, x, tol)
 
 
@@ -340,8 +334,8 @@ def convergence_time(
     ts = as_times(where, ts, "x", x)
     if x.shape[0] < 2:
         raise ValueError(f"{where}: `x` must hold at least two samples, got {x.shape[0]}.")
-    tol = _positive_scalar(where, "tol", tol)
+    tol = check_positive_scalar(where, "tol", tol)
     if window is None:
         window = 0.1 * (ts[-1] - ts[0])
-    window = _positive_scalar(where, "window", window)
+    window = check_positive_scalar(where, "window", window)
     return _convergence_time(ts, x, tol, window)

@@ -30,6 +30,7 @@ import jax
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
+from .._json import json_safe
 from ..simulation import Status, Trajectory
 
 
@@ -40,20 +41,6 @@ def to_host(x) -> np.ndarray:
 
         x = multihost_utils.process_allgather(x, tiled=True)
     return np.asarray(x)
-
-
-def _json_float(value: float) -> float | None:
-    return value if math.isfinite(value) else None
-
-
-def _json_safe(tree):
-    if isinstance(tree, dict):
-        return {k: _json_safe(v) for k, v in tree.items()}
-    if isinstance(tree, (list, tuple)):
-        return [_json_safe(v) for v in tree]
-    if isinstance(tree, float):
-        return _json_float(tree)
-    return tree
 
 
 def _check_quantiles(quantiles: Sequence[float]) -> tuple[float, ...]:
@@ -252,7 +239,7 @@ class MonteCarloResult(eqx.Module):
             summary = self.summary(name, component=index, time_limit=limit, quantiles=quantiles)
             summary["quantiles"] = {str(q): v for q, v in summary["quantiles"].items()}
             out["metrics"][label] = summary
-        return _json_safe(out)
+        return json_safe(out)
 
     def table(
         self,

@@ -324,10 +324,16 @@ def rate_bound_monte_carlo(
         peak_rates = jnp.max(jnp.abs(traj.plant_states.omega), axis=1)
         out[name] = {
             "max_abs_omega": peak_rates,
-            "violated": jnp.any(~(peak_rates < RATE_LIMIT), axis=1) | (traj.status != 0),
+            "violated": _violated(peak_rates, traj.status),
             "status": traj.status,
         }
     return out
+
+
+def _violated(peak_rates, status):
+    """Per sample: a saved $|\\omega_i| \\ge M$, a non-finite rate (`~(x < M)` is true for NaN),
+    or an unsuccessful status."""
+    return jnp.any(~(peak_rates < RATE_LIMIT), axis=-1) | (status != int(Status.successful))
 
 
 def monte_carlo_summary(result: dict) -> dict:
@@ -340,7 +346,7 @@ def monte_carlo_summary(result: dict) -> dict:
     """
     peaks = np.asarray(result["max_abs_omega"], dtype=float)
     status = np.asarray(result["status"])
-    violated = np.any(~(peaks < RATE_LIMIT), axis=-1) | (status != Status.successful)
+    violated = np.asarray(_violated(peaks, status))
     return {
         "violations": int(np.sum(violated)),
         "violation_fraction": float(np.mean(violated)),

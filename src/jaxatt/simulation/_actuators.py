@@ -7,13 +7,8 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float, PyTree
 
 from .._custom_types import RealScalarLike
-from .._validation import check_gain_shape, check_positive, describe, is_traced
+from .._validation import check_positive, check_positive_scalar, describe, is_traced
 from ..numerics import clip, safe_norm
-
-
-def _check_scalar(where: str, name: str, value) -> Array:
-    """A positive scalar (a per-axis array would be broadcast against the command's norm)."""
-    return check_gain_shape(where, name, check_positive(where, name, value), ((),))
 
 
 def _check_per_axis(where: str, name: str, value) -> Array:
@@ -114,7 +109,7 @@ class NormSaturation(AbstractActuator):
     max_norm: Float[Array, ""]
 
     def __init__(self, max_norm: Float[ArrayLike, ""]):
-        self.max_norm = _check_scalar("NormSaturation", "max_norm", max_norm)
+        self.max_norm = check_positive_scalar("NormSaturation", "max_norm", max_norm)
 
     def __call__(self, t, command, state):
         del t, state

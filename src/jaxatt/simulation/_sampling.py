@@ -2,10 +2,10 @@
 
 import abc
 import math
-import numbers
 
 import equinox as eqx
-import jax.numpy as jnp
+
+from .._validation import is_real_scalar
 
 
 class AbstractSampling(eqx.Module):
@@ -37,21 +37,6 @@ class Continuous(AbstractSampling):
         return False
 
 
-def _is_real_scalar(x) -> bool:
-    """A real number (Python, NumPy or a 0-d JAX array), not a bool."""
-    if isinstance(x, bool):
-        return False
-    if isinstance(x, numbers.Real):
-        return True
-    dtype = getattr(x, "dtype", None)
-    return (
-        dtype is not None
-        and getattr(x, "ndim", 1) == 0
-        and jnp.issubdtype(dtype, jnp.number)
-        and not jnp.issubdtype(dtype, jnp.complexfloating)
-    )
-
-
 class ZeroOrderHold(AbstractSampling):
     r"""Run the flight software every `period` seconds and hold its outputs in between.
 
@@ -74,7 +59,7 @@ class ZeroOrderHold(AbstractSampling):
     delayed: bool = eqx.field(static=True)
 
     def __init__(self, period: float, *, delay: bool = False):
-        if not _is_real_scalar(period):
+        if not is_real_scalar(period):
             raise ValueError(f"ZeroOrderHold: `period` must be a number [s], got {period!r}.")
         period = float(period)
         if not (math.isfinite(period) and period > 0):

@@ -24,7 +24,6 @@ diverged sample can never lower the loss.
 """
 
 import abc
-import numbers
 
 import diffrax as dfx
 import equinox as eqx
@@ -38,6 +37,7 @@ from .._validation import (
     check_nonnegative,
     check_positive,
     check_shape,
+    is_real_scalar,
 )
 from ..metrics import (
     AbstractMetric,
@@ -99,11 +99,7 @@ class CVaR(AbstractAggregate):
     alpha: float = eqx.field(static=True)
 
     def __init__(self, alpha: float | int):
-        if (
-            isinstance(alpha, bool)
-            or not isinstance(alpha, numbers.Real)
-            or not 0.0 < float(alpha) < 1.0
-        ):
+        if not is_real_scalar(alpha) or not 0.0 < float(alpha) < 1.0:
             raise ValueError(f"CVaR: `alpha` must be a number in (0, 1), got {alpha!r}.")
         self.alpha = float(alpha)
 

@@ -14,20 +14,16 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._validation import is_real_scalar
+
 
 def _check_bound(where: str, name: str, value) -> float:
     """A bound as a finite Python float; an infinite bound would make the starting gain NaN
     (`inverse` takes the log of an infinite distance) and the range is open on that side
     anyway with `GreaterThan` or an unconstrained `Identity`."""
-    host = np.asarray(value) if not isinstance(value, (str, bytes)) else None
-    if (
-        host is None
-        or isinstance(value, bool)
-        or host.shape != ()
-        or not (np.issubdtype(host.dtype, np.integer) or np.issubdtype(host.dtype, np.floating))
-    ):
+    if not is_real_scalar(value):
         raise ValueError(f"{where}: `{name}` must be a real number, got {value!r}.")
-    bound = float(host)
+    bound = float(value)
     if not np.isfinite(bound):
         raise ValueError(
             f"{where}: `{name}` must be finite, got {name}={bound!r} (for a range open on that "
