@@ -78,6 +78,11 @@ def test_unsettled_extrapolation_uses_the_measured_decay():
     # A signal that does not decay still gets a finite penalty (one e-fold per horizon).
     flat = float(convergence_time(ts, jnp.full_like(ts, 0.1), TOL))
     assert flat == pytest.approx(20.0 + 20.0 * np.log(100.0), rel=1e-12)
+    # A window longer than the record measures the decay over the whole record (from t0).
+    bent = jnp.exp(-0.2 * ts) * (1.0 + 0.5 * jnp.sin(ts))  # not exponential: w matters
+    whole = float(convergence_time(ts, bent, TOL, window=20.0))
+    assert float(convergence_time(ts, bent, TOL, window=1e3)) == whole
+    assert float(convergence_time(ts, bent, TOL, window=2.0)) != whole
 
 
 def test_continuous_across_the_settled_boundary_and_gradients_match_fd():
@@ -155,6 +160,30 @@ def test_metric_objects_read_named_signals_with_explicit_norms():
         Euclidean(axes=0)(e)
 
 
+@pytest.mark.usefixtures("no_jaxtyping")
+@pytest.mark.parametrize("norm", [MaxAbs, Euclidean])
+def test_a_norm_refuses_axes_it_cannot_name(norm):
+    """An axis beyond the signal's axes was wrapped onto another one (`axes=3` of a `(T, 3)`
+    signal reduced axis 1, a plausible magnitude); now it is refused, as are repeats and
+    non-integers. Valid negative axes keep working."""
+    e = jnp.arange(12.0).reshape(4, 3)
+    with pytest.raises(ValueError, match=f"{norm.__name__}: axis 3 of `axes` is out of range"):
+        norm(axes=3)(e)
+    with pytest.raises(ValueError, match="axis -3 of `axes` is out of range"):
+        norm(axes=-3)(e)
+    with pytest.raises(ValueError, match="name the same axis twice"):
+        norm(axes=(1, -1))(e)
+    with pytest.raises(ValueError, match="must not repeat an axis"):
+        norm(axes=(1, 1))
+    for bad in (1.0, "1", (), True):
+        with pytest.raises(ValueError, match="`axes` must be None, an integer"):
+            norm(axes=bad)
+    np.testing.assert_allclose(norm(axes=-1)(e), norm()(e))
+    np.testing.assert_allclose(norm(axes=[1])(e), norm()(e))
+    per_agent = norm(axes=-1)(jnp.ones((4, 2, 3)))
+    assert per_agent.shape == (4, 2)
+
+
 def test_moving_average_removes_a_chatter_and_keeps_a_bias():
     ts = jnp.linspace(0.0, 2.0, 4001)
     chatter = 1e-3 * jnp.sign(jnp.sin(2 * jnp.pi * 50 * ts))  # 50 Hz square wave
@@ -201,6 +230,7 @@ STREAMING_METRICS = {
     "outside_axis": TimeOutside("e", 1e-2, Absolute()),
     "convergence": ConvergenceTime("e", 1e-3),
     "convergence_window": ConvergenceTime("e", 1e-2, MaxAbs(), window=0.7),
+    "convergence_long_window": ConvergenceTime("e", 1e-2, window=100.0),
     "peak": Peak("u"),
     "peak_axis": Peak("e", Absolute()),
     "final": Final("e"),

@@ -44,14 +44,38 @@ from ._effort import control_effort
 from ._settling import convergence_time, decay_extrapolation, settling_time, time_outside
 
 
-def _axes(axes, ndim: int) -> tuple[int, ...]:
-    """Non-time axes to reduce, normalised for a signal with `ndim` axes (time first)."""
+def _check_axes(where: str, axes) -> int | tuple[int, ...] | None:
+    """`axes` as a norm stores it: `None`, an integer, or a tuple of distinct integers."""
+    if axes is None:
+        return None
+    listed = (axes,) if not isinstance(axes, (tuple, list)) else tuple(axes)
+    if not listed or not all(isinstance(a, int) and not isinstance(a, bool) for a in listed):
+        raise ValueError(
+            f"{where}: `axes` must be None, an integer or a non-empty tuple of integers, "
+            f"got {axes!r}."
+        )
+    if len(set(listed)) != len(listed):
+        raise ValueError(f"{where}: `axes` must not repeat an axis, got {axes!r}.")
+    return axes if isinstance(axes, int) else listed
+
+
+def _axes(where: str, axes, ndim: int) -> tuple[int, ...]:
+    """Non-time axes to reduce, normalised for a signal with `ndim` axes (time first). An axis
+    outside `[-ndim, ndim)` is refused (never wrapped onto another axis)."""
     if axes is None:
         return tuple(range(1, ndim))
     axes = (axes,) if isinstance(axes, int) else tuple(axes)
+    for a in axes:
+        if not -ndim <= a < ndim:
+            raise ValueError(
+                f"{where}: axis {a} of `axes` is out of range for a signal with {ndim} axes "
+                f"(time first); valid axes are 1..{ndim - 1} or {1 - ndim}..-1."
+            )
     out = tuple(a % ndim for a in axes)
     if 0 in out:
-        raise ValueError("metrics: a norm must not reduce the time axis (axis 0).")
+        raise ValueError(f"{where}: a norm must not reduce the time axis (axis 0).")
+    if len(set(out)) != len(out):
+        raise ValueError(f"{where}: `axes` {axes!r} name the same axis twice.")
     return out
 
 
@@ -71,9 +95,12 @@ class Euclidean(AbstractNorm):
 
     axes: int | tuple[int, ...] | None = eqx.field(default=None, static=True)
 
+    def __init__(self, axes: int | tuple[int, ...] | None = None):
+        self.axes = _check_axes("Euclidean", axes)
+
     def __call__(self, x):
         x = jnp.asarray(x)
-        axes = _axes(self.axes, x.ndim)
+        axes = _axes("Euclidean", self.axes, x.ndim)
         return safe_norm(x, axis=axes) if axes else jnp.abs(x)
 
 
@@ -83,9 +110,12 @@ class MaxAbs(AbstractNorm):
 
     axes: int | tuple[int, ...] | None = eqx.field(default=None, static=True)
 
+    def __init__(self, axes: int | tuple[int, ...] | None = None):
+        self.axes = _check_axes("MaxAbs", axes)
+
     def __call__(self, x):
         x = jnp.asarray(x)
-        axes = _axes(self.axes, x.ndim)
+        axes = _axes("MaxAbs", self.axes, x.ndim)
         return amax(jnp.abs(x), axis=axes) if axes else jnp.abs(x)
 
 
@@ -288,7 +318,8 @@ class ConvergenceTime(AbstractMetric):
     outside, the time the measured final decay still needs. The tuning objective's time.
 
     **Arguments:** as [`SettlingTime`][], and `window`: the span [s] over which the final decay
-    rate is measured, a positive scalar (default: a tenth of the record).
+    rate is measured, a positive scalar (default: a tenth of the record; one longer than the
+    record measures the rate over the whole record).
     """
 
     is_time: ClassVar[bool] = True

@@ -325,7 +325,9 @@ def convergence_time(
     **Arguments:**
     - `ts`, `x`, `tol`: as [`settling_time`][].
     - `window`: $w$ [s], the span over which the final decay rate is measured; default a
-      tenth of the record.
+      tenth of the record. The rate is measured from the sample closest to $t_{T-1} - w$ (never
+      the last one), over the span actually covered: a window longer than the record measures
+      it over the whole record, from $t_0$.
 
     **Returns:** a scalar [s], `>= ts[0]`, or `inf`.
     """
