@@ -26,6 +26,7 @@ from jaxatt.simulation import (
     Euler,
     NormSaturation,
     Saturation,
+    Simulation,
     ZeroOrderHold,
 )
 
@@ -438,6 +439,27 @@ def test_float32_runs_stay_float32():
     assert traj.plant_states.sigma.dtype == jnp.float32
     assert traj.signals["u"].dtype == jnp.float32
     assert traj.ts.dtype == jnp.float32
+
+
+def test_float32_clock_that_cannot_resolve_dt_is_refused():
+    """At t0 = 1e5 s the spacing of float32 is 7.8 ms: the clock t0 + i dt stalled (every
+    recorded step 0 or 7.8 ms at dt = 1 ms) and time-varying references were evaluated at
+    wrong times with no error. The check refuses it before compiling; float64 and float32
+    near t = 0 run, from the same loop."""
+    f32 = lambda x: jnp.asarray(x, jnp.float32)  # noqa: E731
+    loop = ClosedLoop(
+        RigidBodyMRP(f32(J0), Constant(f32(jnp.zeros((3, 3)))), Constant(f32(jnp.zeros(3)))),
+        MRPPD(f32(17.0), f32(15.0)),
+        ConstantAttitude(f32([1.0, 0, 0, 0])),
+    )
+    x0 = MRPState(f32(mrp_x0().sigma), f32(jnp.zeros(3)))
+    with pytest.raises(ValueError, match=r"in float32 the loop's clock cannot resolve dt=0.001"):
+        jaxatt.simulate(loop, x0, 1e5, 1e5 + 0.01, dt=1e-3)
+    with pytest.raises(ValueError, match=r"near t=200 s"):  # 15 us spacing > 1 % of 1 ms
+        jaxatt.simulate(loop, x0, 0.0, 200.0, dt=1e-3)
+    steps = np.diff(np.asarray(jaxatt.simulate(loop, x0, 0.0, 0.01, dt=1e-3).ts, np.float64))
+    np.testing.assert_allclose(steps, 1e-3, rtol=1e-4)
+    Simulation(1e5, 1e5 + 0.01, 1e-3).check_clock(jnp.float64)  # float64 resolves it
 
 
 def test_initial_state_in_another_precision_than_the_loop_is_refused():

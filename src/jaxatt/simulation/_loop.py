@@ -139,6 +139,7 @@ def integrate_streaming(
 
 def _run(closed_loop, x0, sim, stream):
     dtype = jnp.result_type(*jtu.tree_leaves(x0))
+    sim.check_clock(dtype)
     t0, dt, sps, delay = sim.t0, sim.dt, sim.steps_per_sample, sim.sampling.delay
 
     def time(i) -> Array:

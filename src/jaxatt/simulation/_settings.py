@@ -10,6 +10,7 @@ import numbers
 
 import diffrax as dfx
 import equinox as eqx
+import jax.numpy as jnp
 
 from ._performance import Performance
 from ._sampling import AbstractSampling, Continuous
@@ -161,3 +162,30 @@ class Simulation(eqx.Module):
     def n_saves(self) -> int:
         """Number of saved samples, `t0` included."""
         return self.n_steps // self.save_every + 1
+
+    def check_clock(self, dtype) -> None:
+        r"""Refuse a clock that the loop's precision cannot resolve.
+
+        The loop's times $t_i = t_0 + i\,dt$ are held in `dtype`, the precision of the states.
+        Where the spacing of `dtype` near $\max(|t_0|, |t_1|)$ exceeds 1 % of `dt`, the
+        rounded times (and the solver's stage times, $t_i + dt/2$) can be off by more than
+        0.5 % of a step, and at a spacing of `dt` or more the clock
+        stalls: time-varying references, disturbances and time-varying gains would be
+        evaluated at wrong times with no error. In float32 the check refuses horizons from
+        128 s on at dt = 1 ms; float64 is safe for any practical horizon.
+        """
+        if not jnp.issubdtype(dtype, jnp.floating):
+            return
+        largest = max(abs(self.t0), abs(self.t1))
+        finfo = jnp.finfo(dtype)
+        # the distance from `largest` to the next number of `dtype` (its unit in the last place)
+        spacing = 2.0 ** math.floor(math.log2(largest)) * float(finfo.eps) if largest else 0.0
+        if spacing > 0.01 * self.dt:
+            name = jnp.dtype(dtype).name
+            raise ValueError(
+                f"Simulation: in {name} the loop's clock cannot resolve dt={self.dt:g} s near "
+                f"t={largest:g} s (the spacing of {name} there is {spacing:.3g} s, more than "
+                f"1 % of dt): times would be rounded by up to half that or stall. Start the "
+                f"run nearer t=0 (t0=0 with the time shifted into the reference), take a "
+                f"larger dt, or run in float64."
+            )
