@@ -111,3 +111,14 @@ def test_gradients_of_h_star_and_decay_rate_match_finite_differences():
     )(0.5)
     np.testing.assert_allclose(float(d), 3.0, rtol=1e-12)
     del single
+
+
+def test_a_nan_radius_is_not_taken_for_a_stable_one():
+    # Regression (review): a NaN weight (possible inside jit or grad, where the network's finite
+    # check cannot look) made every radius NaN, which `radii >= 1` read as stable: h* = inf,
+    # "no sampling period below h_max is unstable".
+    h_star = jax.jit(lambda r: largest_stable_interval(_net(r)))
+    assert np.isnan(float(h_star(jnp.array([np.nan, 1.0, 2.0, 1.0]))))
+    np.testing.assert_allclose(float(h_star(jnp.asarray(RHO1))), 0.338329, atol=1e-6)
+    # inf is kept for a network whose radii stay below 1 up to h_max
+    assert float(largest_stable_interval(_net(), h_max=0.3)) == np.inf

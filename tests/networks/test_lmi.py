@@ -11,6 +11,7 @@ from jaxatt.networks import (
     CORRECTED,
     PRINTED,
     LMIForm,
+    LMIResult,
     lmi_feasibility,
     lmi_tau_max,
     printed_form_ceiling,
@@ -93,3 +94,54 @@ def test_bad_input_and_missing_cvxpy(monkeypatch):
     monkeypatch.setattr(builtins, "__import__", no_cvxpy)
     with pytest.raises(ImportError, match=r"pip install 'jaxatt\[lmi\]'"):
         lmi_feasibility(A, BK, 0.1)
+
+
+def _solver(monkeypatch, answer):
+    """Replace the solves by `answer(tau) -> (feasible, status)` (a feasible solve certified,
+    a not-feasible one with a margin just below zero, as Clarabel gives them)."""
+    from jaxatt.networks import _lmi
+
+    def solve(a, b, tau, form=CORRECTED):
+        feasible, status = answer(tau)
+        margin = 1e-3 if feasible else -1e-9
+        return LMIResult(feasible, margin, -margin, margin, status, None, None, None)
+
+    monkeypatch.setattr(_lmi, "lmi_feasibility", solve)
+
+
+def test_an_inconclusive_solve_is_neither_feasible_nor_infeasible(monkeypatch):
+    # Regression (review): a solver error, or an inaccurate answer without a certificate, was
+    # taken as "infeasible": at tau_low the bound became 0.0 ("no tau certified"), at the
+    # bracket's upper end a plausible bisection value.
+    def result(feasible, margin, status):
+        return LMIResult(feasible, margin, -margin, margin, status, None, None, None)
+
+    assert result(False, -1e-9, "optimal").conclusive
+    assert result(True, 1e-3, "optimal_inaccurate").conclusive  # the re-check certifies
+    assert not result(False, -1e-9, "optimal_inaccurate").conclusive
+    assert not result(False, -np.inf, "solver_error").conclusive
+    assert not result(False, 1e-3, "optimal").conclusive  # a margin the re-check refuted
+
+    def bound():
+        return lmi_tau_max(A, BK, tol=1e-3)
+
+    _solver(monkeypatch, lambda tau: (tau < 0.8, "optimal"))
+    assert 0.8 - 1e-3 <= bound() < 0.8
+    # an inaccurate answer at tau_high does not matter: the final upper end was shown
+    _solver(monkeypatch, lambda tau: (tau < 0.8, "optimal_inaccurate" if tau == 2 else "optimal"))
+    assert 0.8 - 1e-3 <= bound() < 0.8
+    # the solver fails above 0.8 s: nothing shows where the certificate stops
+    _solver(monkeypatch, lambda tau: (tau < 0.8, "optimal" if tau < 0.8 else "solver_error"))
+    assert np.isnan(bound())
+    # inaccurate at tau_low: no bound, not "no tau"
+    _solver(monkeypatch, lambda tau: (False, "optimal_inaccurate"))
+    assert np.isnan(bound())
+    _solver(monkeypatch, lambda tau: (False, "optimal"))
+    assert bound() == 0.0
+    # the printed form of Duan's mode lambda = 3 fails the closed-form necessary condition: 0.0
+    # whatever the solver says (Clarabel 0.11 answers "optimal_inaccurate" at 0.001 s)
+    l1 = np.array([[1, -1, 0, 0], [-1, 3, -2, 0], [0, -2, 3, -1], [0, 0, -1, 1]], float)
+    delta = np.outer([2.0, 1.0, 2.0, 1.0], [1.0, 0.0, 0.0, 0.0])
+    _solver(monkeypatch, lambda tau: (False, "optimal_inaccurate"))
+    assert lmi_tau_max(-l1, -3.0 * delta, PRINTED) == 0.0
+    assert np.isnan(lmi_tau_max(-l1, -3.0 * delta, CORRECTED))

@@ -72,3 +72,41 @@ def test_reproduce_short_mode_and_the_paper_claims(tmp_path):
         duan.build(l1="literal")
     with pytest.raises(ValueError, match="`sampling`"):
         duan.build(sampling="sometimes")
+
+
+def test_an_inconclusive_lmi_solve_is_undecided_not_infeasible(monkeypatch):
+    # Regression (review): Python's min over the modes' bounds [0.7346, nan] gave 0.7346,
+    # hiding the mode whose bisection rested on a failed solve, and a solve at 0.26 s that
+    # ended inaccurate without a certificate read as "infeasible" (False).
+    from jaxatt.networks import LMIResult
+
+    def bound(a, b, form, tol):  # the lambda = 3 mode's bisection met an inconclusive solve
+        return np.nan if abs(b[0, 0]) > 3 else 0.7346
+
+    def solve(a, b, tau, form):
+        if abs(b[0, 0]) > 3:
+            return LMIResult(False, -1e-9, 1e-9, -1e-9, "optimal_inaccurate", None, None, None)
+        return LMIResult(True, 0.1, -0.1, 0.1, "optimal", None, None, None)
+
+    monkeypatch.setattr(duan, "lmi_tau_max", bound)
+    monkeypatch.setattr(duan, "lmi_feasibility", solve)
+    lmi = duan.lmi_analysis()
+    assert np.isnan(lmi["lmi_tau_max"]) and lmi["lmi_tau_max_per_mode"][0] == 0.7346
+    assert lmi["lmi_feasible_at_0_26"] is None
+    assert lmi["lmi_feasible_at_0_26_per_mode"] == [True, None]
+    assert lmi["lmi_status_at_0_26_per_mode"] == ["optimal", "optimal_inaccurate"]
+    claims = duan.claims(
+        {
+            "consensus_value": 6.0,
+            "max_final_deviation": 0.0,
+            "random_sampling": {"consensus_value": 6.0, "max_final_deviation": 0.0},
+            "spectral_radius_at_0_26": 0.8655,
+            "exact_h_star": 0.3383,
+            "printed_L1_consensus_value": 0.0,
+        }
+        | {k: lmi[k] for k in ("lmi_tau_max", "lmi_feasible_at_0_26")}
+        | {"lmi_printed_feasible_at_0_26": lmi["lmi_printed_feasible_at_0_26"]}
+    )
+    assert claims["lmi_feasible_at_0_26_corrected"] is False
+    assert claims["lmi_below_exact"] is False
+    assert claims["converges_at_0_26"] and claims["consensus_to_initial_average_periodic"]

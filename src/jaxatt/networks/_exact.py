@@ -107,7 +107,7 @@ def _h_star(network: TwoLayerNetwork, *, h_max: float, grid: int, iterations: in
     dtype = network.intra_laplacian.dtype
     hs = jnp.linspace(h_max / grid, h_max, grid, dtype=dtype)
     radii = jax.vmap(lambda h: _worst_mode_radius(network, h))(hs)
-    unstable = radii >= 1
+    unstable = ~(radii < 1)  # a NaN radius is not a stable one
     first = jnp.argmax(unstable)
     hi = jnp.where(jnp.any(unstable), hs[first], jnp.inf)
     lo = jnp.where(first > 0, hs[jnp.maximum(first - 1, 0)], 0.0)
@@ -119,7 +119,9 @@ def _h_star(network: TwoLayerNetwork, *, h_max: float, grid: int, iterations: in
         return jnp.where(stable, mid, lo), jnp.where(stable, hi, mid)
 
     lo, hi = lax.fori_loop(0, iterations, bisect, (lo, jnp.where(jnp.isfinite(hi), hi, h_max)))
-    return jnp.where(jnp.any(unstable), 0.5 * (lo + hi), jnp.inf)
+    # The bracket ends on a radius >= 1 (a crossing) or on a NaN radius (no answer).
+    crossing = jnp.isfinite(_worst_mode_radius(network, hi))
+    return jnp.where(jnp.any(unstable), jnp.where(crossing, 0.5 * (lo + hi), jnp.nan), jnp.inf)
 
 
 @_h_star.def_jvp
@@ -147,7 +149,9 @@ def largest_stable_interval(
     network: TwoLayerNetwork, *, h_max: float = 5.0, grid: int = 200, iterations: int = 60
 ) -> Float[Array, ""]:
     r"""$h^*$ [s]: the first periodic sampling interval at which an inter-group mode stops
-    being stable, $\max_{k\ge2}\rho(F_k(h^*)) = 1$ (`inf` if none below `h_max`).
+    being stable, $\max_{k\ge2}\rho(F_k(h^*)) = 1$ (`inf` if none below `h_max`; NaN when a
+    radius on the way is NaN, e.g. a network with a NaN weight inside `jit` or `grad`: a NaN
+    radius is never taken for a stable one).
 
     Bracketing: the radii on `grid` equally spaced $h \in (0, h_{max}]$ locate the first
     sign change of $\rho - 1$, then `iterations` bisection steps shrink the bracket (60 steps

@@ -25,7 +25,12 @@ maximise $t$ subject to $P, Q, S \succeq tI$, $P, Q, S \preceq I$ (the problem i
 homogeneous, so this normalises it) and both LMIs $\preceq -tI$. The answer is "feasible"
 only if $t > 10^{-7}$ **and** the eigenvalues of the returned matrices, recomputed in NumPy,
 confirm $P, Q, S \succ 0$ and both LMIs $\prec 0$ (a solver's "optimal" with $t \approx 0$ is
-not a certificate). [`lmi_tau_max`][] bisects on $\tau$.
+not a certificate). "Not feasible" is *shown* only by a solve that ended "optimal" with
+$t \le 10^{-7}$; a solver error or another status leaves the question open
+([`conclusive`][jaxatt.networks.LMIResult.conclusive]). Where the LMIs are not strictly
+feasible the optimum is $t = 0$ at the degenerate $P = Q = S = 0$, and Clarabel may stop there
+with "optimal_inaccurate" (Duan's example: $\tau$ = 2 s, and the printed form at 0.001 s).
+[`lmi_tau_max`][] bisects on $\tau$.
 
 **Necessary condition (a closed-form ceiling).** Take $\xi = (v, v, v)$: then
 $E_1\xi = 0$ and, for either $E_2$, $E_2\xi = 0$, so $\xi^T\Phi\xi = 2v^TP\bar Av +
@@ -89,7 +94,10 @@ PRINTED = LMIForm(eta_sign=False, tau_factor=False, e2=False)
 class LMIResult:
     """The outcome of one LMI solve: `feasible` (margin above the threshold and confirmed by
     the eigenvalue re-check), the `margin` $t$, the re-checked `max_eigenvalue` of the two
-    LMIs and `min_eigenvalue` of $P, Q, S$, the solver `status`, and the matrices."""
+    LMIs and `min_eigenvalue` of $P, Q, S$, the solver `status`, and the matrices.
+
+    `feasible` False is a finding only when [`conclusive`][jaxatt.networks.LMIResult.conclusive]
+    is True; otherwise the solve neither certified nor ruled out feasibility."""
 
     feasible: bool
     margin: float
@@ -99,6 +107,14 @@ class LMIResult:
     P: np.ndarray | None
     Q: np.ndarray | None
     S: np.ndarray | None
+
+    @property
+    def conclusive(self) -> bool:
+        """Whether `feasible` settles the question at this $\\tau$: True when feasible (the
+        eigenvalue re-check is the certificate) or when the solver ended "optimal" with a
+        margin at or below the threshold; False after a solver error, an inaccurate or other
+        status without a certificate, or an "optimal" margin the re-check did not confirm."""
+        return self.feasible or (self.status == "optimal" and self.margin <= MARGIN_THRESHOLD)
 
 
 def _check_system(where: str, a: MatrixLike, b: MatrixLike) -> tuple[np.ndarray, np.ndarray]:
@@ -129,6 +145,12 @@ def lmi_blocks(a: np.ndarray, b: np.ndarray, form: LMIForm = CORRECTED):
     e3 = np.hstack([zero, zero, eye])
     eta = (a if form.eta_sign else -a) @ e1 + b @ e2
     return eta, e2 - e3, (e1 - e2) if form.e2 else (e1 - e3), e1, e3
+
+
+def _delay_free_matrix(a: np.ndarray, b: np.ndarray, form: LMIForm) -> np.ndarray:
+    """$\\bar A$, the matrix $\\eta$ applies to $\\xi = (v, v, v)$: $\\Phi \\prec 0$ needs it
+    Hurwitz (the module's necessary condition)."""
+    return (a if form.eta_sign else -a) + b
 
 
 def lmi_feasibility(
@@ -207,27 +229,38 @@ def lmi_tau_max(
 ) -> float:
     """The largest $\\tau$ at which Theorem 1's LMIs are (strictly) feasible, by bisection.
 
-    Starts from `[tau_low, tau_high]`; returns 0.0 if infeasible at `tau_low`, and
-    `tau_high` if feasible there (widen the bracket). Bisection assumes feasibility is
-    monotone in $\\tau$ (not guaranteed for this functional); the answer is a $\\tau$ certified
-    feasible, within `tol` [s] of one found infeasible.
+    Starts from `[tau_low, tau_high]`. Returns 0.0 when no $\\tau$ is certified: the
+    closed-form necessary condition fails ($\\bar A$ not Hurwitz, see the module: no $\\tau$ can
+    be feasible; a proof, no solve), or a conclusive solve at `tau_low` finds the LMIs not
+    feasible there; `tau_high` if they are
+    certified there (widen the bracket). Bisection assumes feasibility is monotone in $\\tau$
+    (not guaranteed for this functional); the answer is a $\\tau$ certified feasible, within
+    `tol` [s] of one shown not feasible by a conclusive solve
+    ([`conclusive`][jaxatt.networks.LMIResult.conclusive]). **NaN** when the answer would rest
+    on an inconclusive solve (a solver error, or an inaccurate status without a certificate)
+    at `tau_low` or at the bracket's final upper end: the bound is then not known.
     """
     where = "lmi_tau_max"
     a, b = _check_system(where, a, b)
     tau_low, tau_high = _check_tau(where, tau_low), _check_tau(where, tau_high)
     tol = _check_tau(where, tol)
-    if not lmi_feasibility(a, b, tau_low, form).feasible:
+    if np.max(np.linalg.eigvals(_delay_free_matrix(a, b, form)).real) >= 0:
         return 0.0
-    if lmi_feasibility(a, b, tau_high, form).feasible:
+    low = lmi_feasibility(a, b, tau_low, form)
+    if not low.feasible:
+        return 0.0 if low.conclusive else math.nan
+    high = lmi_feasibility(a, b, tau_high, form)
+    if high.feasible:
         return tau_high
-    lo, hi = tau_low, tau_high
+    lo, hi, shown = tau_low, tau_high, high.conclusive
     while hi - lo > tol:
         mid = 0.5 * (lo + hi)
-        if lmi_feasibility(a, b, mid, form).feasible:
+        result = lmi_feasibility(a, b, mid, form)
+        if result.feasible:
             lo = mid
         else:
-            hi = mid
-    return lo
+            hi, shown = mid, result.conclusive
+    return lo if shown else math.nan
 
 
 def printed_form_ceiling(intra_laplacian: MatrixLike, delta: MatrixLike, lam: float) -> dict:
@@ -250,7 +283,8 @@ def printed_form_ceiling(intra_laplacian: MatrixLike, delta: MatrixLike, lam: fl
 def network_lmi_tau_max(network, form: LMIForm = CORRECTED, **bisection) -> list[float]:
     r"""[`lmi_tau_max`][] for each inter-group mode $k = 2..q$ of a
     [`TwoLayerNetwork`][jaxatt.networks.TwoLayerNetwork] ($A = -L_1$,
-    $B = -\lambda_k\Delta$); the network's certified bound is the smallest."""
+    $B = -\lambda_k\Delta$); the network's certified bound is the smallest (NaN if a mode's
+    is NaN: take it with `np.min`, which keeps the NaN, not Python's `min`)."""
     lam = np.linalg.eigvalsh(np.asarray(network.inter_laplacian, dtype=float))
     a = -np.asarray(network.intra_laplacian, dtype=float)
     delta = np.asarray(network.delta, dtype=float)
