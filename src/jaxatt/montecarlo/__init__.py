@@ -7,16 +7,17 @@
   [`batch_field`][] puts a batch into a closed loop.
 - Runs: [`monte_carlo`][] (checked inputs, vmap, `lax.map` chunks, sharding over devices)
   over [`run_batch`][], the one batch runner every batched simulation in jaxatt uses (the
-  tuning objectives too), with [`default_metrics`][] reduced on the fly by default
-  ([`MetricStream`][], nothing stored unless `keep_trajectories=True`); it returns a
-  [`MonteCarloResult`][]
-  with `summary()`, `table()` and `to_dict()`; [`summary_table`][] compares several batches.
+  tuning objectives too; [`check_batch_states`][] is the host check its callers make), with
+  [`default_metrics`][] reduced on the fly by default ([`MetricStream`][], nothing stored
+  unless `keep_trajectories=True`); it returns a [`MonteCarloResult`][] with `summary()`,
+  `table()` and `to_dict()`; [`summary_table`][] compares several batches.
 """
 
 from ._batch import (
     Metrics as Metrics,
     MetricStream as MetricStream,
     batch_field as batch_field,
+    check_batch_states as check_batch_states,
     default_metrics as default_metrics,
     evaluate_metrics as evaluate_metrics,
     monte_carlo as monte_carlo,

@@ -153,8 +153,9 @@ def run_batch(
     Sample $k$ is `integrate(loop_k, x0s[k], sim)`, `loop_k` being `closed_loop` with the
     arrays of `batched` (a pytree of the loop's structure holding the batched fields, as
     `eqx.partition` makes) replaced by their $k$-th entries. No host-side checks: callers
-    ([`monte_carlo`][], the tuning objectives) validate first, and `sim.performance` must be
-    resolved.
+    ([`monte_carlo`][], the tuning objectives) validate first (the states with
+    [`check_batch_states`][]), and `sim.performance` must be resolved
+    (`sim.with_performance(sim.performance.resolve(n))`).
 
     - `batch_size=None`: one `vmap` over the batch; else `lax.map` chunks of `batch_size`.
     - `sharding`: split the batch axis over the devices of a 1-D mesh (the batch must be a

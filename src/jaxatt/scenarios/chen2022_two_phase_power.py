@@ -36,8 +36,7 @@ import numpy as np
 
 from ..controllers import NormRobustTerm, SlidingModeTracking
 from ..metrics import chattering, control_effort, peak, settling_time
-from ..montecarlo import run_batch
-from ..montecarlo._batch import check_batch_states
+from ..montecarlo import check_batch_states, run_batch
 from ..numerics import safe_norm
 from ..plants import QuaternionState, RigidBodyQuaternion
 from ..reaching import AbstractReachingLaw, DoublePower, Exponential, TwoPhasePower

@@ -69,8 +69,7 @@ from ..controllers import (
     homogeneous_exponent,
 )
 from ..metrics import max_abs, moving_average, peak, settling_time
-from ..montecarlo import barrier_states, run_batch
-from ..montecarlo._batch import check_batch_states
+from ..montecarlo import barrier_states, check_batch_states, run_batch
 from ..numerics import safe_norm
 from ..observers import SuperTwistingObserver
 from ..plants import MRPState, RigidBodyMRP
