@@ -52,8 +52,54 @@ def test_without_avoidance_case2_enters_the_keep_out_set(short):
     without = metrics["case2"]["without_avoidance"]
     assert without["enters_keep_out"] and without["min_h"] < 0.0
     assert 0.0 < without["entry_time"] < wu2018.HORIZON
-    # Case 1 starts inside the corridor and flies straight down it: safe either way.
-    assert not metrics["case1"]["without_avoidance"]["enters_keep_out"]
+    assert without["result"] == "constraint_violated"
+    # Case 1 starts inside the corridor and flies straight down it: safe either way (False,
+    # not merely falsy: None means the run failed before it could tell).
+    case1 = metrics["case1"]["without_avoidance"]
+    assert case1["enters_keep_out"] is False and case1["result"] == "successful"
+    assert case1["entry_time"] is None
+
+
+def _stub_trajectory(h, status, failure_time):
+    """A hand-made (unbatched) trajectory with the fields `wu2018._without` reads, saved every
+    0.2 s."""
+    from jaxatt.simulation import Trajectory
+
+    h = jnp.asarray(h, dtype=float)
+    return Trajectory(
+        ts=0.2 * jnp.arange(h.shape[0], dtype=float),
+        states=None,
+        signals={"h": h},
+        status=jnp.array(int(status)),
+        failure_time=jnp.array(failure_time, dtype=float),
+        events={},
+    )
+
+
+def test_a_run_that_failed_another_way_does_not_report_that_it_stayed_out():
+    """A run without avoidance that diverged before reaching h = 0 used to report
+    `enters_keep_out: False`, a plausible "it stayed safe" for a failed run; now it reports
+    `None` (unknown) and its status, and a sample with h <= 0 saved after another failure
+    (non-physical motion) is not an entry."""
+    from jaxatt.simulation import Status
+
+    diverged = wu2018._without(_stub_trajectory([90.0, 80.0, jnp.nan], Status.nonfinite_state, 0.3))
+    assert diverged["enters_keep_out"] is None and diverged["entry_time"] is None
+    assert diverged["result"] == "nonfinite_state"
+    invalid = wu2018._without(_stub_trajectory([90.0, 80.0, -5.0], Status.invalid_plant, 0.2))
+    assert invalid["enters_keep_out"] is None and invalid["entry_time"] is None
+    assert invalid["result"] == "invalid_plant"
+    # An entry before the other failure counts, at the first saved time with h <= 0.
+    early = wu2018._without(_stub_trajectory([90.0, -1.0, jnp.nan], Status.nonfinite_state, 0.3))
+    assert early["enters_keep_out"] is True and early["entry_time"] == pytest.approx(0.2)
+    violated = wu2018._without(
+        _stub_trajectory([90.0, 1.0, -3.0], Status.constraint_violated, 0.31)
+    )
+    assert violated["enters_keep_out"] is True and violated["entry_time"] == 0.31
+    assert violated["result"] == "constraint_violated" and violated["min_h"] == -3.0
+    safe = wu2018._without(_stub_trajectory([90.0, 80.0, 75.0], Status.successful, jnp.inf))
+    assert safe["enters_keep_out"] is False and safe["entry_time"] is None
+    assert safe["result"] == "successful"
 
 
 def test_monte_carlo_reports_every_sample_safe_and_converged(short):

@@ -306,12 +306,32 @@ def sample_outside_starts(key, n: int) -> np.ndarray:
 
 
 def _without(traj: Trajectory) -> dict:
+    """Whether one run without the avoidance term entered the keep-out set $h \\le 0$.
+
+    `result` is the run's status name (`jaxatt.simulation.Status`). `enters_keep_out` is
+    `True` if the run reached $h \\le 0$ (status `constraint_violated`, or a saved sample with
+    $h \\le 0$ no later than the failure time), `False` only if the run ended successfully, and
+    `None` (unknown, JSON null) if it failed another way first (e.g. `nonfinite_state`): a
+    diverged run is not evidence that the chaser stayed safe. `entry_time` [s] is the failure
+    time for `constraint_violated`, else the first such saved time, else `None`. `min_h` is
+    over the saved samples (NaN, JSON null, if any is NaN)."""
+    ts = np.asarray(traj.ts)
     h = np.asarray(traj.signals["h"])
-    entered = int(traj.status) == Status.constraint_violated or bool((h <= 0).any())
+    status = Status(int(traj.status))
+    # Samples after another failure are not physical (a NaN state, an invalid plant).
+    inside = (h <= 0) & (ts <= float(traj.failure_time))
+    if status == Status.constraint_violated:
+        entered, entry_time = True, float(traj.failure_time)
+    elif inside.any():
+        entered, entry_time = True, float(ts[np.argmax(inside)])
+    else:
+        entered = False if status == Status.successful else None
+        entry_time = None
     return {
         "min_h": float(h.min()),
         "enters_keep_out": entered,
-        "entry_time": float(traj.failure_time) if entered else None,
+        "entry_time": entry_time,
+        "result": status.name,
     }
 
 
@@ -345,8 +365,10 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
     `metrics.json`: `blend_coefficients` ($[c_1, c_2, c_3, c_4]$ recomputed), `printed_c`,
     `settings` (every choice), `case1` and `case2` (with the avoidance term:
     [`trajectory_metrics`][] plus `without_avoidance` {`min_h`, `enters_keep_out`,
-    `entry_time`}), `case2_direct` (Case 2 flown straight at $r_d$ with avoidance, at
-    dt = 5 ms: safe, but it stalls on the corridor mouth's lip; null with `short=True`),
+    `entry_time`, `result`}: `enters_keep_out` is null when that run failed another way
+    before reaching $h \\le 0$), `case2_direct` (Case 2 flown straight at $r_d$ with
+    avoidance, at dt = 5 ms: safe, but it stalls on the corridor mouth's lip; null with
+    `short=True`),
     `monte_carlo` ({`corridor`, `outside`}: [`monte_carlo_summary`][]), `without_avoidance`
     (the same summary of Cases 1 and 2 without the avoidance term, as a batch).
     `short=True` (CI): 4 + 4 Monte Carlo samples, no direct run.
