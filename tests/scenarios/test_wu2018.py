@@ -162,12 +162,13 @@ def test_unsaturated_law_meets_its_reaching_dynamics_exactly():
     np.testing.assert_allclose(s_dot, expected, rtol=1e-9, atol=1e-12)
 
 
-@pytest.mark.parametrize("velocity_limit", [None, 1.0])
-def test_the_integral_surface_starts_on_the_surface(velocity_limit):
+@pytest.mark.parametrize("velocity_limit, rate_limit", [(None, None), (1.0, None), (1.0, 0.05)])
+def test_the_integral_surface_starts_on_the_surface(velocity_limit, rate_limit):
     # `integral_start="zero_surface"` promises s(0) = 0. With a velocity limit the surface
     # holds sat_V(w + b), and the integral was set as if it held w + b: s(0) was
     # e2 (1 - 1/sqrt(1 + |e2|^2/V^2)) away from 0, up to 0.013 m/s here (review, 2026-12-05).
-    loop = wu2018.build(surface="integral", velocity_limit=velocity_limit)
+    # Each channel inverts its own limit (the attitude one is `rate_limit`).
+    loop = wu2018.build(surface="integral", velocity_limit=velocity_limit, rate_limit=rate_limit)
     x0 = wu2018.initial_state(wu2018.CASES["case1"])
     x0 = eqx_replace_velocity(x0, jnp.array([-0.3, 0.05, -0.02]))
     y0 = loop.init(0.0, x0)
@@ -175,6 +176,38 @@ def test_the_integral_surface_starts_on_the_surface(velocity_limit):
     signals = loop.controller.signals(0.0, y0.plant, ref, y0.controller)
     np.testing.assert_allclose(signals["s_translation"], 0.0, atol=1e-12)
     np.testing.assert_allclose(signals["s_attitude"], 0.0, atol=1e-12)
+
+
+def _commands(controller):
+    """Signals of `controller` (surfaces, commanded force and torque) at Case 1's start with a
+    velocity that the 0.5 m/s limit bounds, at t = 3 s of the reference, from one shared state;
+    and the attitude channel's rate error e2 there."""
+    x0 = eqx_replace_velocity(
+        wu2018.initial_state(wu2018.CASES["case1"]), jnp.array([-0.3, 0.05, -0.02])
+    )
+    reference = wu2018.build().reference(3.0, None)[0]
+    state = wu2018.controller(velocity_limit=None).init(0.0, x0, reference)
+    e2 = controller._attitude_errors(x0, reference)[4]
+    return controller.signals(3.0, x0, reference, state), e2
+
+
+def test_the_velocity_limit_bounds_the_translational_channel_only():
+    """`velocity_limit` V [m/s] also saturated the attitude surface's kinematic term (an MRP
+    rate, 1/s): a unit mismatch (review, 2026-12). The attitude channel has its own
+    `rate_limit` R, and each limit leaves the other channel alone."""
+    free, e2 = _commands(wu2018.controller(velocity_limit=None, rate_limit=None))
+    limited, _ = _commands(wu2018.controller(velocity_limit=0.5, rate_limit=None))
+    for name in ("s_attitude", "commanded_torque"):
+        np.testing.assert_allclose(limited[name], free[name], rtol=1e-14, atol=1e-15)
+    for name in ("s_translation", "commanded_force"):
+        assert float(jnp.max(jnp.abs(limited[name] - free[name]))) > 1e-3, name
+    slow, _ = _commands(wu2018.controller(velocity_limit=0.5, rate_limit=0.05))
+    for name in ("s_translation", "commanded_force"):
+        np.testing.assert_allclose(slow[name], limited[name], rtol=1e-14, atol=1e-15)
+    # The attitude surface's kinematic term kappa = s - e2: unbounded without R, |kappa| < R.
+    assert float(jnp.linalg.norm(free["s_attitude"] - e2)) > 0.05
+    assert 0.0 < float(jnp.linalg.norm(slow["s_attitude"] - e2)) < 0.05
+    assert float(jnp.max(jnp.abs(slow["commanded_torque"] - free["commanded_torque"]))) > 1e-3
 
 
 def eqx_replace_velocity(x0, velocity):
@@ -208,6 +241,8 @@ def test_bad_input_is_refused_before_running():
         loop.controller.check_initial(0.0, wu2018.initial_state(wu2018.CASES["case1"]), ref)
     with pytest.raises(ValueError, match="velocity_limit"):
         wu2018.controller(velocity_limit=-1.0)
+    with pytest.raises(ValueError, match="rate_limit"):
+        wu2018.controller(rate_limit=0.0)
     with pytest.raises(ValueError, match="avoidance"):
         SafeApproachSlidingMode(
             wu2018.plant(False),
