@@ -52,8 +52,54 @@ def test_without_avoidance_case2_enters_the_keep_out_set(short):
     without = metrics["case2"]["without_avoidance"]
     assert without["enters_keep_out"] and without["min_h"] < 0.0
     assert 0.0 < without["entry_time"] < wu2018.HORIZON
-    # Case 1 starts inside the corridor and flies straight down it: safe either way.
-    assert not metrics["case1"]["without_avoidance"]["enters_keep_out"]
+    assert without["result"] == "constraint_violated"
+    # Case 1 starts inside the corridor and flies straight down it: safe either way (False,
+    # not merely falsy: None means the run failed before it could tell).
+    case1 = metrics["case1"]["without_avoidance"]
+    assert case1["enters_keep_out"] is False and case1["result"] == "successful"
+    assert case1["entry_time"] is None
+
+
+def _stub_trajectory(h, status, failure_time):
+    """A hand-made (unbatched) trajectory with the fields `wu2018._without` reads, saved every
+    0.2 s."""
+    from jaxatt.simulation import Trajectory
+
+    h = jnp.asarray(h, dtype=float)
+    return Trajectory(
+        ts=0.2 * jnp.arange(h.shape[0], dtype=float),
+        states=None,
+        signals={"h": h},
+        status=jnp.array(int(status)),
+        failure_time=jnp.array(failure_time, dtype=float),
+        events={},
+    )
+
+
+def test_a_run_that_failed_another_way_does_not_report_that_it_stayed_out():
+    """A run without avoidance that diverged before reaching h = 0 used to report
+    `enters_keep_out: False`, a plausible "it stayed safe" for a failed run; now it reports
+    `None` (unknown) and its status, and a sample with h <= 0 saved after another failure
+    (non-physical motion) is not an entry."""
+    from jaxatt.simulation import Status
+
+    diverged = wu2018._without(_stub_trajectory([90.0, 80.0, jnp.nan], Status.nonfinite_state, 0.3))
+    assert diverged["enters_keep_out"] is None and diverged["entry_time"] is None
+    assert diverged["result"] == "nonfinite_state"
+    invalid = wu2018._without(_stub_trajectory([90.0, 80.0, -5.0], Status.invalid_plant, 0.2))
+    assert invalid["enters_keep_out"] is None and invalid["entry_time"] is None
+    assert invalid["result"] == "invalid_plant"
+    # An entry before the other failure counts, at the first saved time with h <= 0.
+    early = wu2018._without(_stub_trajectory([90.0, -1.0, jnp.nan], Status.nonfinite_state, 0.3))
+    assert early["enters_keep_out"] is True and early["entry_time"] == pytest.approx(0.2)
+    violated = wu2018._without(
+        _stub_trajectory([90.0, 1.0, -3.0], Status.constraint_violated, 0.31)
+    )
+    assert violated["enters_keep_out"] is True and violated["entry_time"] == 0.31
+    assert violated["result"] == "constraint_violated" and violated["min_h"] == -3.0
+    safe = wu2018._without(_stub_trajectory([90.0, 80.0, 75.0], Status.successful, jnp.inf))
+    assert safe["enters_keep_out"] is False and safe["entry_time"] is None
+    assert safe["result"] == "successful"
 
 
 def test_monte_carlo_reports_every_sample_safe_and_converged(short):
@@ -116,12 +162,13 @@ def test_unsaturated_law_meets_its_reaching_dynamics_exactly():
     np.testing.assert_allclose(s_dot, expected, rtol=1e-9, atol=1e-12)
 
 
-@pytest.mark.parametrize("velocity_limit", [None, 1.0])
-def test_the_integral_surface_starts_on_the_surface(velocity_limit):
+@pytest.mark.parametrize("velocity_limit, rate_limit", [(None, None), (1.0, None), (1.0, 0.05)])
+def test_the_integral_surface_starts_on_the_surface(velocity_limit, rate_limit):
     # `integral_start="zero_surface"` promises s(0) = 0. With a velocity limit the surface
     # holds sat_V(w + b), and the integral was set as if it held w + b: s(0) was
     # e2 (1 - 1/sqrt(1 + |e2|^2/V^2)) away from 0, up to 0.013 m/s here (review, 2026-12-05).
-    loop = wu2018.build(surface="integral", velocity_limit=velocity_limit)
+    # Each channel inverts its own limit (the attitude one is `rate_limit`).
+    loop = wu2018.build(surface="integral", velocity_limit=velocity_limit, rate_limit=rate_limit)
     x0 = wu2018.initial_state(wu2018.CASES["case1"])
     x0 = eqx_replace_velocity(x0, jnp.array([-0.3, 0.05, -0.02]))
     y0 = loop.init(0.0, x0)
@@ -129,6 +176,38 @@ def test_the_integral_surface_starts_on_the_surface(velocity_limit):
     signals = loop.controller.signals(0.0, y0.plant, ref, y0.controller)
     np.testing.assert_allclose(signals["s_translation"], 0.0, atol=1e-12)
     np.testing.assert_allclose(signals["s_attitude"], 0.0, atol=1e-12)
+
+
+def _commands(controller):
+    """Signals of `controller` (surfaces, commanded force and torque) at Case 1's start with a
+    velocity that the 0.5 m/s limit bounds, at t = 3 s of the reference, from one shared state;
+    and the attitude channel's rate error e2 there."""
+    x0 = eqx_replace_velocity(
+        wu2018.initial_state(wu2018.CASES["case1"]), jnp.array([-0.3, 0.05, -0.02])
+    )
+    reference = wu2018.build().reference(3.0, None)[0]
+    state = wu2018.controller(velocity_limit=None).init(0.0, x0, reference)
+    e2 = controller._attitude_errors(x0, reference)[4]
+    return controller.signals(3.0, x0, reference, state), e2
+
+
+def test_the_velocity_limit_bounds_the_translational_channel_only():
+    """`velocity_limit` V [m/s] also saturated the attitude surface's kinematic term (an MRP
+    rate, 1/s): a unit mismatch (review, 2026-12). The attitude channel has its own
+    `rate_limit` R, and each limit leaves the other channel alone."""
+    free, e2 = _commands(wu2018.controller(velocity_limit=None, rate_limit=None))
+    limited, _ = _commands(wu2018.controller(velocity_limit=0.5, rate_limit=None))
+    for name in ("s_attitude", "commanded_torque"):
+        np.testing.assert_allclose(limited[name], free[name], rtol=1e-14, atol=1e-15)
+    for name in ("s_translation", "commanded_force"):
+        assert float(jnp.max(jnp.abs(limited[name] - free[name]))) > 1e-3, name
+    slow, _ = _commands(wu2018.controller(velocity_limit=0.5, rate_limit=0.05))
+    for name in ("s_translation", "commanded_force"):
+        np.testing.assert_allclose(slow[name], limited[name], rtol=1e-14, atol=1e-15)
+    # The attitude surface's kinematic term kappa = s - e2: unbounded without R, |kappa| < R.
+    assert float(jnp.linalg.norm(free["s_attitude"] - e2)) > 0.05
+    assert 0.0 < float(jnp.linalg.norm(slow["s_attitude"] - e2)) < 0.05
+    assert float(jnp.max(jnp.abs(slow["commanded_torque"] - free["commanded_torque"]))) > 1e-3
 
 
 def eqx_replace_velocity(x0, velocity):
@@ -162,6 +241,8 @@ def test_bad_input_is_refused_before_running():
         loop.controller.check_initial(0.0, wu2018.initial_state(wu2018.CASES["case1"]), ref)
     with pytest.raises(ValueError, match="velocity_limit"):
         wu2018.controller(velocity_limit=-1.0)
+    with pytest.raises(ValueError, match="rate_limit"):
+        wu2018.controller(rate_limit=0.0)
     with pytest.raises(ValueError, match="avoidance"):
         SafeApproachSlidingMode(
             wu2018.plant(False),

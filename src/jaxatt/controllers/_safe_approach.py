@@ -12,12 +12,13 @@ derivative $\dot e_2 = a + B\,u$ is affine in the input $u$:
 
 Per channel, with the printed gain names (SPEC's template; our choices marked **[R]**):
 
-- sliding variable $s = e_2 + \kappa$, $\kappa = \mathrm{sat}_V(w + b)$:
+- sliding variable $s = e_2 + \kappa$, $\kappa = \mathrm{sat}_L(w + b)$ with the channel's own
+  limit $L$ (below):
   - `surface="terminal"` (default, **[R]**): $w = k_1e_1 + k_2\,\mathrm{sig}^\gamma(e_1)$, a
-    fast terminal surface; on $s = 0$ the position obeys $\dot e_1 = -\mathrm{sat}_V(w + b)$;
+    fast terminal surface; on $s = 0$ the error obeys $\dot e_1 = -\mathrm{sat}_L(w + b)$;
   - `surface="integral"` (the template's literal form): $w = k_1e_1 + k_2\int_0^t
     \mathrm{sig}^\gamma(e_1)\,d\tau$ (`integral_start="zero_surface"` starts the integral where
-    $s(0) = 0$, through the saturation's inverse when there is a velocity limit and the
+    $s(0) = 0$, through the inverse of the channel's saturation when it has a limit and the
     initial rate error is below it);
   - $b = \nabla\Phi$, the avoidance term (translation only, `avoidance="surface"`): the gradient
     of Khatib's potential $\Phi = \frac{k_h}{2}\max(0, 1/\hat h - 1/\hat h_0)^2$ on $1/\hat h$,
@@ -27,8 +28,12 @@ Per channel, with the printed gain names (SPEC's template; our choices marked **
     $|\nabla(1/\hat h)|$ is large ($c > 0$ the saturation's scale), so $1/\hat h$ stays bounded
     and $h > 0$: the paper's argument, made at the velocity level. `avoidance="input"` adds
     $b$ to the commanded acceleration instead (the template's literal placement);
-  - $\mathrm{sat}_V(\kappa) = \kappa/\sqrt{1 + \|\kappa\|^2/V^2}$ (`velocity_limit` $V$,
-    **[R]**; `None` = no limit): the printed $k_1 = 0.5$ asks for 22 m/s from Case 1's 43.5 m.
+  - $\mathrm{sat}_L(\kappa) = \kappa/\sqrt{1 + \|\kappa\|^2/L^2}$ (**[R]**; no limit: the
+    identity), a smooth bound $\|\kappa\| < L$ on the rate the surface asks for, per channel
+    in that channel's units: translation `velocity_limit` $L = V$ [m/s] (the printed
+    $k_1 = 0.5$ asks for 22 m/s from Case 1's 43.5 m), attitude `rate_limit` $L = R$ [1/s] on
+    the MRP rate $\dot\sigma - \dot\sigma_d$ (about $\|\omega - \omega_d\|/4$ near
+    $\sigma = 0$, since $G(0) = I/4$). Each is `None` (no limit) by default.
 - auxiliary (anti-windup) system, $\Delta = B(\mathrm{sat}(u) - u)$ in channel units,
   $\dot\eta = -k_\eta\eta + \Delta$ (**[R]**), or with `template_auxiliary=True` the template's
   $\dot\eta = -k_\eta\eta - \frac{|s^\top\Delta| + \frac12\Delta^\top\Delta}{\max(\|\eta\|^2,
@@ -93,7 +98,9 @@ class SafeApproachSlidingMode(AbstractController):
     evaluated at the Hill-frame position), gains `k1, k2, k3, gamma, k_s, k_eta, k_h, P1, P2`
     (positive, $\gamma < 1$; $k_h \ge 0$, and $k_h = 0$ turns the avoidance term off inside
     the same compiled program), `force_limit` [N] and `torque_limit` [N m] (per body axis),
-    `velocity_limit` $V$ [m/s] (`None`: none), `influence` $\hat h_0$ [m] (default 2),
+    `velocity_limit` $V$ [m/s] (translation channel only; `None`: none), `rate_limit` $R$
+    [1/s] (attitude channel only, on the MRP rate error; `None`: none), `influence` $\hat h_0$
+    [m] (default 2),
     `length` $L$ [m] (default 10), `epsilon` (tanh width, default 0.01), `mu` (guard of the
     template's auxiliary gain, default 1e-3), `floor` [m] (terminal slope guard, default
     0.01), `avoidance` (`"surface"`, `"input"` or `None`: no avoidance, the paper's "without
@@ -124,6 +131,7 @@ class SafeApproachSlidingMode(AbstractController):
     influence: Float[Array, ""]
     floor: Float[Array, ""]
     velocity_limit: Float[Array, ""] | None
+    rate_limit: Float[Array, ""] | None
     epsilon: Float[Array, ""]
     mu: Float[Array, ""]
     avoidance: str | None = eqx.field(static=True)
@@ -157,6 +165,7 @@ class SafeApproachSlidingMode(AbstractController):
         integral_start: str = "zero_surface",
         surface: str = "terminal",
         velocity_limit=None,
+        rate_limit=None,
         floor=1e-2,
         template_auxiliary: bool = False,
     ):
@@ -180,6 +189,9 @@ class SafeApproachSlidingMode(AbstractController):
             None
             if velocity_limit is None
             else check_positive(where, "velocity_limit", velocity_limit)
+        )
+        self.rate_limit = (
+            None if rate_limit is None else check_positive(where, "rate_limit", rate_limit)
         )
         self.floor = check_positive(where, "floor", floor)
         self.integral_start, self.template_auxiliary = integral_start, bool(template_auxiliary)
@@ -264,22 +276,28 @@ class SafeApproachSlidingMode(AbstractController):
         _, _, _, a1, a2, _ = self._attitude_errors(measurement, reference)
         return SafeApproachState(
             ChannelState(
-                (self._unsaturated(-e2) - self.k1 * e1 - b) / self.k2, jnp.zeros(3), jnp.zeros(())
+                (self._unsaturated(-e2, self.velocity_limit) - self.k1 * e1 - b) / self.k2,
+                jnp.zeros(3),
+                jnp.zeros(()),
             ),
             ChannelState(
-                (self._unsaturated(-a2) - self.k1 * a1) / self.k2, jnp.zeros(3), jnp.zeros(())
+                (self._unsaturated(-a2, self.rate_limit) - self.k1 * a1) / self.k2,
+                jnp.zeros(3),
+                jnp.zeros(()),
             ),
         )
 
-    def _unsaturated(self, kappa: Array) -> Array:
-        r"""The $w + b$ whose saturation is `kappa`: $\mathrm{sat}_V^{-1}(\kappa) =
-        \kappa/\sqrt{1 - \|\kappa\|^2/V^2}$ (`kappa` itself without a velocity limit), so that
-        `integral_start="zero_surface"` gives $s(0) = 0$. Defined for $\|\kappa\| < V$; a
-        larger initial rate error cannot be cancelled by any integral (the saturation's range
-        is the open ball of radius $V$), and its norm is taken as $(1 - 10^{-6})V$."""
-        if self.velocity_limit is None:
+    @staticmethod
+    def _unsaturated(kappa: Array, limit: Array | None) -> Array:
+        r"""The $w + b$ whose saturation is `kappa`: $\mathrm{sat}_L^{-1}(\kappa) =
+        \kappa/\sqrt{1 - \|\kappa\|^2/L^2}$ with the channel's `limit` $L$ (`kappa` itself
+        without one), so that `integral_start="zero_surface"` gives $s(0) = 0$. Defined for
+        $\|\kappa\| < L$; a larger initial rate error cannot be cancelled by any integral (the
+        saturation's range is the open ball of radius $L$), and its norm is taken as
+        $(1 - 10^{-6})L$."""
+        if limit is None:
             return kappa
-        v2 = self.velocity_limit**2
+        v2 = limit**2
         ratio = jnp.minimum((kappa @ kappa) / v2, (1.0 - 1e-6) ** 2)
         return kappa / jnp.sqrt(1.0 - ratio)
 
@@ -290,9 +308,12 @@ class SafeApproachSlidingMode(AbstractController):
             where, "target position reference.translation.position", reference.translation.position
         )
 
-    def _kinematic_command(self, e1, e2, power, state: ChannelState, barrier, barrier_rate):
+    def _kinematic_command(
+        self, e1, e2, power, state: ChannelState, barrier, barrier_rate, limit: Array | None
+    ):
         r"""The surface's position part $\kappa$ (so $s = e_2 + \kappa$) and its rate;
-        `power` is $\mathrm{sig}^\gamma(e_1)$."""
+        `power` is $\mathrm{sig}^\gamma(e_1)$, `limit` the channel's $L$ of
+        $\mathrm{sat}_L$ (`velocity_limit` or `rate_limit`: each channel's in its own units)."""
         if self.surface == "integral":
             w = self.k1 * e1 + self.k2 * state.integral
             w_dot = self.k1 * e2 + self.k2 * power
@@ -304,16 +325,18 @@ class SafeApproachSlidingMode(AbstractController):
             slope = self.gamma * jnp.exp((self.gamma - 1.0) * jnp.log(floored))
             w_dot = self.k1 * e2 + self.k2 * slope * e2
         kappa, kappa_dot = w + barrier, w_dot + barrier_rate
-        if self.velocity_limit is None:
+        if limit is None:
             return kappa, kappa_dot
-        v2 = self.velocity_limit**2
+        v2 = limit**2
         c = 1.0 / jnp.sqrt(1.0 + (kappa @ kappa) / v2)
         return c * kappa, c * kappa_dot - c**3 * (kappa @ kappa_dot) / v2 * kappa
 
     def _channel(
-        self, e1, e2, power, drift, state: ChannelState, surface_term, surface_rate, extra
+        self, e1, e2, power, drift, state: ChannelState, surface_term, surface_rate, extra, limit
     ):
-        kappa, kappa_dot = self._kinematic_command(e1, e2, power, state, surface_term, surface_rate)
+        kappa, kappa_dot = self._kinematic_command(
+            e1, e2, power, state, surface_term, surface_rate, limit
+        )
         s = e2 + kappa
         z = s - state.eta
         v = (
@@ -354,6 +377,7 @@ class SafeApproachSlidingMode(AbstractController):
             b if in_surface else zero,
             b_dot if in_surface else zero,
             b if self.avoidance == "input" else zero,
+            self.velocity_limit,
         )
         f_cmd = model.body_force(y, v_f)
         force = clip(f_cmd, -self.force_limit, self.force_limit)
@@ -363,7 +387,15 @@ class SafeApproachSlidingMode(AbstractController):
         inertia = model.body.inertia
         power_t = sig_pow(a1, self.gamma)
         s_t, v_t = self._channel(
-            a1, a2, power_t, g_dot @ att.omega - sdd, state.attitude, zero, zero, zero
+            a1,
+            a2,
+            power_t,
+            g_dot @ att.omega - sdd,
+            state.attitude,
+            zero,
+            zero,
+            zero,
+            self.rate_limit,
         )
         g_inv = g.T / (0.25 * (1.0 + sigma @ sigma)) ** 2
         tau_cmd = skew(att.omega) @ (inertia @ att.omega) + inertia @ (g_inv @ v_t)

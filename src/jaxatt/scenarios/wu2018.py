@@ -33,7 +33,9 @@ $P_1 = 0.01$, $P_2 = 0.09$; $a_1 = 48.9$, $a_2 = 49$, $a_3 = 50$ m, $\theta = \p
    chaser off the sphere the integral winds up and drives it round the sphere at a growing
    speed (19 m/s after 10 s). The velocity limit $V = 0.5$ m/s is ours: $k_1 = 0.5$ alone
    asks for 22 m/s from Case 1's 43.5 m, which no input limit of a 100 kg chaser delivers
-   and no docking approach flies.
+   and no docking approach flies. It bounds the translational channel only; the attitude
+   surface has no limit (`RATE_LIMIT = None`: the controller's `rate_limit`, in 1/s on the
+   MRP rate error, stays unused).
 4. *Avoidance term*: in the sliding variable (a velocity-level barrier, so the paper's "1/h
    bounded" argument holds on the surface), $b = k_h(1/\hat h - 1/\hat h_0)\nabla(1/\hat h)$
    on $\hat h$, $h$ normalised to a distance, with an influence distance $\hat h_0 = 2$ m so
@@ -110,7 +112,8 @@ OMEGA0 = (-0.01, 0.008, -0.01)
 CASES = {"case1": (48.5, -1.4, 0.2), "case2": (50.1, 15.1, 32.1)}
 GAINS = dict(k1=0.5, k2=0.5, k3=0.9, gamma=0.6, k_s=3.0, k_eta=1.6, k_h=40.0, P1=0.01, P2=0.09)
 FORCE_LIMIT, TORQUE_LIMIT = 20.0, 1.0
-VELOCITY_LIMIT, INFLUENCE, LENGTH = 0.5, 2.0, 10.0
+VELOCITY_LIMIT, INFLUENCE, LENGTH = 0.5, 2.0, 10.0  # m/s (translation only), m, m
+RATE_LIMIT = None  # the attitude surface's MRP-rate limit [1/s]: none
 HOLD_POINT, HOLD_RELEASE = (60.0, 0.0, 0.0), 130.0
 HORIZON, DT, SAVE_PERIOD = 300.0, 0.02, 0.2  # s
 DIRECT_DT, DIRECT_HORIZON = 0.005, 150.0
@@ -199,6 +202,7 @@ def controller(avoidance: bool = True, **options) -> SafeApproachSlidingMode:
         force_limit=FORCE_LIMIT,
         torque_limit=TORQUE_LIMIT,
         velocity_limit=VELOCITY_LIMIT,
+        rate_limit=RATE_LIMIT,
         influence=INFLUENCE,
         length=LENGTH,
         avoidance="surface",
@@ -306,12 +310,32 @@ def sample_outside_starts(key, n: int) -> np.ndarray:
 
 
 def _without(traj: Trajectory) -> dict:
+    """Whether one run without the avoidance term entered the keep-out set $h \\le 0$.
+
+    `result` is the run's status name (`jaxatt.simulation.Status`). `enters_keep_out` is
+    `True` if the run reached $h \\le 0$ (status `constraint_violated`, or a saved sample with
+    $h \\le 0$ no later than the failure time), `False` only if the run ended successfully, and
+    `None` (unknown, JSON null) if it failed another way first (e.g. `nonfinite_state`): a
+    diverged run is not evidence that the chaser stayed safe. `entry_time` [s] is the failure
+    time for `constraint_violated`, else the first such saved time, else `None`. `min_h` is
+    over the saved samples (NaN, JSON null, if any is NaN)."""
+    ts = np.asarray(traj.ts)
     h = np.asarray(traj.signals["h"])
-    entered = int(traj.status) == Status.constraint_violated or bool((h <= 0).any())
+    status = Status(int(traj.status))
+    # Samples after another failure are not physical (a NaN state, an invalid plant).
+    inside = (h <= 0) & (ts <= float(traj.failure_time))
+    if status == Status.constraint_violated:
+        entered, entry_time = True, float(traj.failure_time)
+    elif inside.any():
+        entered, entry_time = True, float(ts[np.argmax(inside)])
+    else:
+        entered = False if status == Status.successful else None
+        entry_time = None
     return {
         "min_h": float(h.min()),
         "enters_keep_out": entered,
-        "entry_time": float(traj.failure_time) if entered else None,
+        "entry_time": entry_time,
+        "result": status.name,
     }
 
 
@@ -345,8 +369,10 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
     `metrics.json`: `blend_coefficients` ($[c_1, c_2, c_3, c_4]$ recomputed), `printed_c`,
     `settings` (every choice), `case1` and `case2` (with the avoidance term:
     [`trajectory_metrics`][] plus `without_avoidance` {`min_h`, `enters_keep_out`,
-    `entry_time`}), `case2_direct` (Case 2 flown straight at $r_d$ with avoidance, at
-    dt = 5 ms: safe, but it stalls on the corridor mouth's lip; null with `short=True`),
+    `entry_time`, `result`}: `enters_keep_out` is null when that run failed another way
+    before reaching $h \\le 0$), `case2_direct` (Case 2 flown straight at $r_d$ with
+    avoidance, at dt = 5 ms: safe, but it stalls on the corridor mouth's lip; null with
+    `short=True`),
     `monte_carlo` ({`corridor`, `outside`}: [`monte_carlo_summary`][]), `without_avoidance`
     (the same summary of Cases 1 and 2 without the avoidance term, as a batch).
     `short=True` (CI): 4 + 4 Monte Carlo samples, no direct run.
@@ -375,7 +401,8 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
         "settings": {
             "force_limit_N_per_axis": FORCE_LIMIT,
             "torque_limit_Nm_per_axis": TORQUE_LIMIT,
-            "velocity_limit": VELOCITY_LIMIT,
+            "velocity_limit_m_per_s_translation": VELOCITY_LIMIT,
+            "rate_limit_per_s_attitude": RATE_LIMIT,
             "influence": INFLUENCE,
             "length": LENGTH,
             "gains": GAINS,
