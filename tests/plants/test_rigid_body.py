@@ -200,3 +200,17 @@ def test_bad_plant_configuration_raises(build, needle):
     with pytest.raises(ValueError) as info:
         build()
     assert needle in str(info.value)
+
+
+def test_a_signal_reused_across_rebuilds_is_still_shape_checked():
+    """The signals' shape check is traced once per signal object (batch_field rebuilds a
+    RigidBody per sample around the same signals); the cached answer still refuses a signal of
+    the wrong shape, every time, and a different object of the same type is checked anew."""
+    good, bad = Constant(jnp.zeros(3)), Constant(jnp.zeros(2))
+    for _ in range(2):
+        RigidBody(jnp.eye(3), disturbance=good)
+        with pytest.raises(ValueError, match=r"`disturbance` must return arrays of shape \(3,\)"):
+            RigidBody(jnp.eye(3), disturbance=bad)
+        with pytest.raises(ValueError, match=r"`inertia_perturbation` must return .* \(3, 3\)"):
+            RigidBody(jnp.eye(3), inertia_perturbation=good)
+    RigidBody(jnp.eye(3), inertia_perturbation=Constant(jnp.zeros((3, 3))), disturbance=good)

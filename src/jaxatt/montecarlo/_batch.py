@@ -392,8 +392,10 @@ def batch_field(
     field's path and the rule. A module whose constructor cannot rebuild it from its own fields
     (its arguments are not its fields, e.g. `RigidBodyMRP`, whose `body` is rebuilt instead) is
     left unchecked; with traced `values` the constructors' traced checks are not run either.
-    The checks cost one constructor call per sample and module on the path (from well under a
-    millisecond for a gain to about 10 ms for a `RigidBody`, which evaluates its signals).
+    The checks cost one constructor call per sample and module on the path: from well under a
+    millisecond for a gain to about 0.5 ms for a `RigidBody` (0.52 s for 1000 inertias of Chen
+    2022's loop on the 2-core Xeon, against 2.35 s when each rebuild traced its signals' shape
+    check again; a signal's shape is now traced once per signal object).
 
     !!! example
         ```python
