@@ -46,8 +46,10 @@ $P_1 = 0.01$, $P_2 = 0.09$; $a_1 = 48.9$, $a_2 = 49$, $a_3 = 50$ m, $\theta = \p
    crossed $h = 0$ within 1.3 s in both cases even with 1000 N.
 5. *Auxiliary system*: $\dot\eta = -k_\eta\eta + \Delta$, entering through $z = s - \eta$; the
    template's extra term $-(|s^\top\Delta| + \frac12\|\Delta\|^2)\eta/\|\eta\|^2$ (kept as
-   `template_auxiliary=True`) is stiff at $\eta \to 0$: at dt = 20 ms its peak $\|\eta\|$ was
-   16 in one run of Case 2 and 477 in the same run inside a batch (floating-point order).
+   `template_auxiliary=True`) is stiff at $\eta \to 0$: at dt = 20 ms its peak $\|\eta\|$
+   in Case 2 is set by round-off, 16 in one run and 477 in the same run inside a batch
+   (floating-point order), and 409 in one run after the attitude channel's velocity limit
+   was removed (2026-12-05, `simulate` of `build(hold_point=True, template_auxiliary=True)`).
 6. *Adaptive law*: $\dot{\hat d}_m = P_1\|s\| - P_2\hat d_m$ (sigma modification), $\hat d_m
    \tanh(z/0.01)$ in place of $\hat d_m\,\mathrm{sign}(z)$.
 7. *Input limits* (not printed): 20 N per body axis and 1 N m per axis.
