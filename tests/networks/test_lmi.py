@@ -51,6 +51,9 @@ def test_textbook_example_bound_lies_below_the_exact_one():
     np.testing.assert_allclose(exact, EXACT_TEXTBOOK, atol=1e-4)
     tau = lmi_tau_max(A, BK, CORRECTED, tau_low=0.5, tau_high=1.5, tol=2e-3)
     assert 1.035 < tau < 1.05
+    # A bracket whose upper end is still feasible gives that end, flagged as a lower bound.
+    with pytest.warns(UserWarning, match="feasible at the bracket's upper end tau_high=0.9"):
+        assert lmi_tau_max(A, BK, CORRECTED, tau_low=0.5, tau_high=0.9) == 0.9
     assert 0.869 < tau < exact
     inside = lmi_feasibility(A, BK, tau - 0.01)
     outside = lmi_feasibility(A, BK, tau + 0.01)
@@ -82,6 +85,8 @@ def test_bad_input_and_missing_cvxpy(monkeypatch):
         lmi_feasibility(A, BK, 0.0)
     with pytest.raises(ValueError, match="`tau` must be positive"):
         lmi_tau_max(A, BK, tau_high=-1.0)
+    with pytest.raises(ValueError, match="`tau_low` < `tau_high`, got tau_low=0.5, tau_high=0.5"):
+        lmi_tau_max(A, BK, tau_low=0.5, tau_high=0.5)
     with pytest.raises(ValueError, match="`b` must have the shape of `a`"):
         lmi_feasibility(A, np.eye(3), 0.1)
     real_import = builtins.__import__

@@ -232,10 +232,10 @@ def lmi_tau_max(
     Starts from `[tau_low, tau_high]`. Returns 0.0 when no $\\tau$ is certified: the
     closed-form necessary condition fails ($\\bar A$ not Hurwitz, see the module: no $\\tau$ can
     be feasible; a proof, no solve), or a conclusive solve at `tau_low` finds the LMIs not
-    feasible there; `tau_high` if they are
-    certified there (widen the bracket). Bisection assumes feasibility is monotone in $\\tau$
-    (not guaranteed for this functional); the answer is a $\\tau$ certified feasible, within
-    `tol` [s] of one shown not feasible by a conclusive solve
+    feasible there; `tau_high` if they are certified there, with a `UserWarning`: the largest
+    $\\tau$ is then only known to be at least `tau_high` (widen the bracket). Bisection assumes
+    feasibility is monotone in $\\tau$ (not guaranteed for this functional); the answer is a
+    $\\tau$ certified feasible, within `tol` [s] of one shown not feasible by a conclusive solve
     ([`conclusive`][jaxatt.networks.LMIResult.conclusive]). **NaN** when the answer would rest
     on an inconclusive solve (a solver error, or an inaccurate status without a certificate)
     at `tau_low` or at the bracket's final upper end: the bound is then not known.
@@ -244,6 +244,11 @@ def lmi_tau_max(
     a, b = _check_system(where, a, b)
     tau_low, tau_high = _check_tau(where, tau_low), _check_tau(where, tau_high)
     tol = _check_tau(where, tol)
+    if tau_low >= tau_high:
+        raise ValueError(
+            f"{where}: the bracket must have `tau_low` < `tau_high`, got tau_low={tau_low}, "
+            f"tau_high={tau_high}."
+        )
     if np.max(np.linalg.eigvals(_delay_free_matrix(a, b, form)).real) >= 0:
         return 0.0
     low = lmi_feasibility(a, b, tau_low, form)
@@ -251,6 +256,11 @@ def lmi_tau_max(
         return 0.0 if low.conclusive else math.nan
     high = lmi_feasibility(a, b, tau_high, form)
     if high.feasible:
+        warnings.warn(
+            f"{where}: the LMIs are feasible at the bracket's upper end tau_high={tau_high}, so "
+            "the largest tau is at least that, not known; widen the bracket (larger tau_high).",
+            stacklevel=2,
+        )
         return tau_high
     lo, hi, shown = tau_low, tau_high, high.conclusive
     while hi - lo > tol:
