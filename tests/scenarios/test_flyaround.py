@@ -65,3 +65,60 @@ def test_reference_geometry_and_rates_match_finite_differences():
 def test_fly_around_radius_must_be_positive(radius):
     with pytest.raises(ValueError, match="`radius` must be positive"):
         flyaround.reference(radius=radius)
+
+
+def _stub_batch(position, pointing_deg, status, failure_time):
+    """A hand-made batch of trajectories with the fields `flyaround._summary` reads, saved at
+    t = 0, 100, 190 and 200 s."""
+    import jax.numpy as jnp
+
+    from jaxatt.simulation import Trajectory
+
+    position = jnp.asarray(position, dtype=float)
+    n, t = position.shape
+    return Trajectory(
+        ts=jnp.tile(jnp.array([0.0, 100.0, 190.0, 200.0]), (n, 1)),
+        states=None,
+        signals={
+            "position_norm": position,
+            "pointing_error": jnp.radians(jnp.asarray(pointing_deg, dtype=float)),
+            "u": jnp.ones((n, t, 6)),
+            "energy": jnp.ones((n, t)),
+        },
+        status=jnp.asarray([int(s) for s in status]),
+        failure_time=jnp.asarray(failure_time, dtype=float),
+        events={},
+    )
+
+
+def test_a_failed_sample_makes_no_worst_case_look_plausible():
+    """Regression (review): the Monte Carlo's worst cases were Python's `max` over every
+    sample, failed ones included: a diverged sample's NaN error was dropped (max(0.05, nan) is
+    0.05) and a sample stopped by an invalid plant, its later samples small, counted as
+    settled. A failed sample now counts at its worst: every worst case is None (JSON null)."""
+    from jaxatt.simulation import Status
+
+    good = ([50.0, 1.0, 0.05, 0.04], [30.0, 0.5, 0.05, 0.04])
+    diverged = ([40.0, 1.0, 0.01, np.nan], [20.0, 0.5, 0.01, np.nan])
+    invalid = ([60.0, 0.01, 0.01, 0.01], [30.0, 0.01, 0.01, 0.01])
+
+    def summary(*samples, status, failure_time):
+        position, pointing = zip(*samples, strict=True)
+        return flyaround._summary(
+            _stub_batch(position, pointing, status, failure_time), seed=0, horizon=200.0
+        )
+
+    ok = summary(good, good, status=[Status.successful] * 2, failure_time=[np.inf] * 2)
+    assert ok["successful"] == 2 and ok["worst_max_position_error_after_190s"] == 0.05
+    assert 100.0 < ok["worst_position_settle_time"] < 190.0
+    for bad, status in ((diverged, Status.nonfinite_state), (invalid, Status.invalid_plant)):
+        m = summary(good, bad, status=[Status.successful, status], failure_time=[np.inf, 195.0])
+        assert m["successful"] == 1
+        for key in (
+            "worst_position_settle_time",
+            "median_position_settle_time",
+            "worst_pointing_settle_time",
+            "worst_max_position_error_after_190s",
+            "worst_max_pointing_error_deg_after_190s",
+        ):
+            assert m[key] is None, (status, key)

@@ -186,16 +186,27 @@ def _stack(first: ProximityState, rest: ProximityState) -> ProximityState:
 
 
 def _summary(trajs: Trajectory, seed: int, horizon: float) -> dict:
+    """The Monte Carlo entry of `metrics.json`: `successful` counts the samples whose run ended
+    successfully. A failed sample counts at its worst: never settled, its errors unknown (its
+    samples after the failure are not physical), so each `worst_*` and the median settle time
+    are None (JSON null) as soon as one sample failed, never settled or has a non-finite
+    error."""
     per_sample = [
         trajectory_metrics(jax.tree_util.tree_map(lambda x, k=k: x[k], trajs))
         for k in range(trajs.ts.shape[0])
     ]
 
-    def worst(key):
-        values = [m[key] for m in per_sample]
-        return None if any(v is None for v in values) else max(values)
+    def values(key):
+        return [
+            m[key] if m["status"] == 0 and m[key] is not None and math.isfinite(m[key]) else None
+            for m in per_sample
+        ]
 
-    settle = [m["position_settle_time_0.1m"] for m in per_sample]
+    def worst(key):
+        found = values(key)
+        return None if any(v is None for v in found) else max(found)
+
+    settle = values("position_settle_time_0.1m")
     return {
         "samples": len(per_sample),
         "seed": seed,
