@@ -94,6 +94,12 @@ def run(
             case: {name: reproduction[case][name]["s_settle_time"] for name in chen.CONTROLLERS}
             for case in chen.CASES
         },
+        "chen2022_failed": [
+            f"{case} {name}"
+            for case in chen.CASES
+            for name in chen.CONTROLLERS
+            if not reproduction[case][name]["successful"]
+        ],
         "monte_carlo": {
             name: {
                 k: s[k] for k in ("count", "failed", "nonfinite", "mean", "worst", "success_rate")
@@ -118,6 +124,16 @@ def _fmt(value) -> str:
     return "n/a" if value is None or not np.isfinite(value) else f"{value:.3g}"
 
 
+def _chen_cell(settle_time, successful: bool) -> str:
+    """A reproduction's settle time: "failed" for a run that did not end successfully (its
+    numbers are not physical), "not settled" for one that never settled, else 3 digits."""
+    if not successful:
+        return "failed"
+    if settle_time is None or settle_time == np.inf:
+        return "not settled"
+    return _fmt(settle_time)
+
+
 def _cell(key: str, value) -> str:
     """A held-out statistic: 3 significant digits, or what a missing value means."""
     if value is None or isinstance(value, int):
@@ -137,8 +153,10 @@ def _write_report(out: pathlib.Path, summary: dict, n: int, tuning: dict) -> Non
         "| case | M1 two-phase | M2 exponential | M3 double power |",
         "| --- | --- | --- | --- |",
     ]
+    failed = set(summary.get("chen2022_failed", ()))
     for case, row in summary["chen2022"].items():
-        lines.append(f"| {case} | " + " | ".join(_fmt(row[k]) for k in chen.CONTROLLERS) + " |")
+        cells = (_chen_cell(row[k], f"{case} {k}" not in failed) for k in chen.CONTROLLERS)
+        lines.append(f"| {case} | " + " | ".join(cells) + " |")
     lines += [
         "",
         "Figures: `chen2022/fig2_attitude_error_D1.png` ... `chen2022/fig8_s3_D1_vs_D2.png`.",
