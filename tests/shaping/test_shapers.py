@@ -153,6 +153,22 @@ def test_bad_modes_are_refused(cls):
         cls(0.0, 0.01)
 
 
+@pytest.mark.usefixtures("no_jaxtyping")
+@pytest.mark.parametrize(
+    ("t_start", "needle"),
+    [
+        (float("nan"), "`t_start` must be finite"),  # made every command NaN
+        (float("inf"), "`t_start` must be finite"),  # a step that never happened
+        (-float("inf"), "`t_start` must be finite"),  # a step that was always over
+        (jnp.ones(3), r"`t_start` must be a scalar"),  # a broadcasting error in `command`
+    ],
+)
+def test_shaped_attitude_refuses_a_bad_start_time(t_start, needle):
+    q0, q1 = jnp.array([1.0, 0.0, 0.0, 0.0]), jnp.array([0.0, 1.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match=f"ShapedAttitude: {needle}"):
+        ShapedAttitude(ZeroVibrationSmoother(1.0, 0.01), q0, q1, t_start)
+
+
 def test_shaped_attitude_command():
     """Unit norm throughout, q(0) at t = 0, the target after 2T; omega_d = 2 [q^* q']_v
     against a central difference."""
