@@ -201,6 +201,14 @@ def is_real_scalar(x) -> bool:
     )
 
 
+def check_flag(where: str, name: str, value) -> bool:
+    """A static switch: `True` or `False` (a Python or NumPy bool). `bool(value)` would turn the
+    string "False", or any non-empty object, into `True` and silently choose the other model."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{where}: `{name}` must be True or False, got {value!r}.")
+    return bool(value)
+
+
 def check_positive_scalar(where: str, name: str, value: ArrayLike) -> Array:
     """A positive scalar (a band, a span, a limit): a shape `(3,)` value would broadcast and
     fail deep inside a computation, or silently give one result per entry."""

@@ -10,13 +10,20 @@ from scipy.integrate import solve_ivp
 from jaxatt.orbits import (
     MU_EARTH,
     OrbitalElements,
+    anomaly_rates,
+    clohessy_wiltshire_stm,
     elements_to_state,
+    hill_frame,
     j2_gravity,
     kepler_propagate,
     mean_motion,
+    mean_to_true_anomaly,
     point_mass_gravity,
+    relative_acceleration,
     relative_pose_errors,
     state_to_elements,
+    true_to_mean_anomaly,
+    tschauner_hempel_stm,
 )
 from jaxatt.rotations import attitude_error_mrp, mrp_to_dcm
 
@@ -85,6 +92,47 @@ def test_bad_elements_are_refused():
         elements_to_state(OrbitalElements(7e6, 1.2, 0, 0, 0, 0))
     with pytest.raises(ValueError, match="semi-major axis `a`"):
         kepler_propagate(OrbitalElements(-7e6, 0.1, 0, 0, 0, 0), 10.0)
+
+
+_NAN = float("nan")
+_R, _V = elements_to_state(ZHANG)
+
+
+@pytest.mark.parametrize(
+    ("call", "needle"),
+    [
+        # Each returned NaN, inf or a plausible wrong number (comment: what came back).
+        (lambda: elements_to_state(ZHANG._replace(i=_NAN)), "elements_to_state: `i` must be"),
+        (lambda: elements_to_state(ZHANG, 0.0), "elements_to_state: `mu` must be positive"),
+        (lambda: kepler_propagate(ZHANG, _NAN), "kepler_propagate: `dt` must be finite"),  # NaN
+        # a hyperbolic state: a < 0 and e > 1 returned as elements
+        (lambda: state_to_elements(_R, 2 * _V), "state_to_elements: the state must be bound"),
+        (lambda: state_to_elements(_R, _R / 1e3), "`r` x `v` must be non-zero"),  # e = 1
+        (lambda: mean_motion(0.0), "mean_motion: the semi-major axis `a`"),  # inf
+        (lambda: true_to_mean_anomaly(0.3, 1.5), "true_to_mean_anomaly: the eccentricity"),
+        (lambda: mean_to_true_anomaly(0.3, -0.2), "mean_to_true_anomaly: the eccentricity"),
+        (lambda: anomaly_rates(0.3, 7e6, -0.2), "anomaly_rates: the eccentricity"),  # plausible
+        (lambda: anomaly_rates(0.3, 7e6, 0.1, -1.0), "anomaly_rates: `mu` must be positive"),
+        (
+            lambda: relative_acceleration(0.3, jnp.ones(3), jnp.ones(3), 0.0, 0.1),
+            "relative_acceleration: the semi-major axis `a`",
+        ),
+        (lambda: tschauner_hempel_stm(0.3, 10.0, 7e6, 1.0), "tschauner_hempel_stm: the eccen"),
+        (lambda: clohessy_wiltshire_stm(0.0, 10.0), "clohessy_wiltshire_stm: the mean motion"),
+        (lambda: clohessy_wiltshire_stm(-1e-3, 10.0), "clohessy_wiltshire_stm: the mean motion"),
+        (lambda: hill_frame(_R, _R), "hill_frame: `r_t` x `v_t` must be non-zero"),
+    ],
+)
+def test_orbit_arguments_outside_their_domain_are_refused(call, needle):
+    with pytest.raises(ValueError, match=needle):
+        call()
+
+
+def test_orbit_checks_leave_traced_arguments_alone():
+    """Under `jit` the checks add nothing: a traced eccentricity is computed with, not checked
+    (the functions run inside compiled dynamics)."""
+    rates = jax.jit(lambda e: anomaly_rates(0.3, 7e6, e))(0.1)
+    np.testing.assert_allclose(rates, anomaly_rates(0.3, 7e6, 0.1), rtol=1e-15)
 
 
 def test_relative_pose_errors_vanish_at_the_desired_pose():

@@ -16,6 +16,7 @@ from jaxatt.shaping import (
     ZeroVibration,
     ZeroVibrationDerivative,
     ZeroVibrationSmoother,
+    damped_period,
 )
 
 
@@ -151,6 +152,41 @@ def test_bad_modes_are_refused(cls):
         cls(1.0, -0.1)
     with pytest.raises(ValueError, match="frequency"):
         cls(0.0, 0.01)
+
+
+@pytest.mark.parametrize(
+    ("call", "needle"),
+    [
+        # Each returned NaN (an overdamped mode has an imaginary damped frequency) or inf.
+        (lambda: ZeroVibration(1.0, 0.01).residual_vibration(1.0, 1.5), "`damping` must lie"),
+        (lambda: ZeroVibrationDerivative(1.0).residual_vibration(-1.0, 0.0), "`frequency` must"),
+        (
+            lambda: ZeroVibrationSmoother(1.0, 0.01).residual_vibration(jnp.array([1.0, 1.5]), 2.0),
+            "ZeroVibrationSmoother.residual_vibration: `damping` must lie in",
+        ),
+        (lambda: damped_period(0.0, 0.0), "damped_period: `frequency` must be positive"),
+        (lambda: damped_period(1.0, 1.5), "damped_period: `damping` must lie in"),
+    ],
+)
+def test_modes_outside_the_formulas_domain_are_refused(call, needle):
+    with pytest.raises(ValueError, match=needle):
+        call()
+
+
+@pytest.mark.usefixtures("no_jaxtyping")
+@pytest.mark.parametrize(
+    ("t_start", "needle"),
+    [
+        (float("nan"), "`t_start` must be finite"),  # made every command NaN
+        (float("inf"), "`t_start` must be finite"),  # a step that never happened
+        (-float("inf"), "`t_start` must be finite"),  # a step that was always over
+        (jnp.ones(3), r"`t_start` must be a scalar"),  # a broadcasting error in `command`
+    ],
+)
+def test_shaped_attitude_refuses_a_bad_start_time(t_start, needle):
+    q0, q1 = jnp.array([1.0, 0.0, 0.0, 0.0]), jnp.array([0.0, 1.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match=f"ShapedAttitude: {needle}"):
+        ShapedAttitude(ZeroVibrationSmoother(1.0, 0.01), q0, q1, t_start)
 
 
 def test_shaped_attitude_command():

@@ -41,7 +41,13 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike, Vec3
-from .._validation import check_gain_shape, check_in_open_interval, check_positive, check_spd
+from .._validation import (
+    check_flag,
+    check_gain_shape,
+    check_in_open_interval,
+    check_positive,
+    check_spd,
+)
 from ..numerics import sig_pow, sign
 from ..plants import AbstractPlant
 from ._base import AbstractObserver
@@ -128,7 +134,7 @@ class IntegralSlidingModeObserver(AbstractObserver):
         self.beta = check_gain_shape(
             where, "beta", check_in_open_interval(where, "beta", beta, 0.0, 1.0)
         )
-        self.literal_alpha2 = bool(literal_alpha2)
+        self.literal_alpha2 = check_flag(where, "literal_alpha2", literal_alpha2)
 
     @property
     def alpha2(self) -> Float[Array, "*k"]:

@@ -38,6 +38,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 from .._custom_types import RealScalarLike, Vec3
 from .._validation import (
     check,
+    check_flag,
     check_gain_shape,
     check_nonnegative,
     check_positive,
@@ -184,7 +185,7 @@ class SuperTwistingObserver(AbstractObserver):
         self.rho2 = check_positive("SuperTwistingObserver", "rho2", rho2)
         for name, value in (("rho1", self.rho1), ("rho2", self.rho2)):
             check_gain_shape("SuperTwistingObserver", name, value)
-        self.acceleration = bool(acceleration)
+        self.acceleration = check_flag("SuperTwistingObserver", "acceleration", acceleration)
 
     def init(self, t0: RealScalarLike, measurement) -> SuperTwistingState:
         del t0

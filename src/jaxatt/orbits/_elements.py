@@ -7,8 +7,8 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
-from .._validation import is_traced
 from ..numerics import clip, vectorized_sin, vectorized_sincos
+from ._checks import check_orbit_arguments, check_orbit_state
 from ._constants import MU_EARTH
 
 
@@ -39,14 +39,11 @@ class OrbitalElements(NamedTuple):
         return cls(a, e, rad(i), rad(raan), rad(argp), rad(nu))
 
 
-def _check_elliptic(where: str, a, e) -> None:
-    if is_traced(a) or is_traced(e):
-        return
-    a, e = np.asarray(a), np.asarray(e)
-    if not np.all(np.isfinite(a) & (a > 0)):
-        raise ValueError(f"{where}: the semi-major axis `a` must be positive, got a={a}.")
-    if not np.all((e >= 0) & (e < 1)):
-        raise ValueError(f"{where}: the eccentricity `e` must lie in [0, 1), got e={e}.")
+def _check_elements(where: str, elements, mu, **more) -> None:
+    """The elements of an ellipse (`a > 0`, `e` in [0, 1), finite angles), `mu > 0`, and any
+    `more` values finite (concrete values only)."""
+    a, e, i, raan, argp, nu = elements
+    check_orbit_arguments(where, a=a, e=e, i=i, raan=raan, argp=argp, nu=nu, mu=mu, **more)
 
 
 def _perifocal_to_inertial(i, raan, argp) -> Float[Array, "3 3"]:
@@ -73,10 +70,11 @@ def elements_to_state(
     $v = \sqrt{\mu/p}\,[-\sin\theta, e + \cos\theta, 0]$, rotated by
     $R_3(-\Omega)R_1(-i)R_3(-\omega)$ (Vallado, *Fundamentals of Astrodynamics*, alg. 10).
 
-    **Raises:** `ValueError` if `a <= 0` or `e` outside [0, 1) (concrete values).
+    **Raises:** `ValueError` if `a <= 0`, `e` outside [0, 1), an angle not finite or
+    `mu <= 0` (concrete values).
     """
+    _check_elements("elements_to_state", elements, mu)
     a, e, i, raan, argp, nu = (jnp.asarray(x, dtype=float) for x in elements)
-    _check_elliptic("elements_to_state", a, e)
     p = a * (1.0 - e**2)
     sin_nu, cos_nu = vectorized_sincos(nu)
     radius = p / (1.0 + e * cos_nu)
@@ -96,7 +94,12 @@ def state_to_elements(
     Singular elements get conventional values: for a circular orbit ($e = 0$) $\omega = 0$ and
     $\theta$ is the argument of latitude; for an equatorial one ($i = 0$) $\Omega = 0$ and
     angles are measured from the $x$ axis. The state must be bound (negative energy).
+
+    **Raises:** `ValueError` (concrete values) if `r` or `v` is not finite, `r` is zero, the
+    state is rectilinear ($r\times v = 0$) or not bound, or `mu <= 0`.
     """
+    check_orbit_arguments("state_to_elements", mu=mu)
+    check_orbit_state("state_to_elements", "r", r, "v", v, bound_mu=mu)
     r, v = jnp.asarray(r, dtype=float), jnp.asarray(v, dtype=float)
     tiny = 1e-11
     h = jnp.cross(r, v)
@@ -129,12 +132,15 @@ def state_to_elements(
 
 
 def mean_motion(a: RealScalarLike, mu: RealScalarLike = MU_EARTH) -> Float[Array, ""]:
-    r"""Mean motion $n = \sqrt{\mu/a^3}$ [rad/s]."""
+    r"""Mean motion $n = \sqrt{\mu/a^3}$ [rad/s] (`a > 0`, `mu > 0`)."""
+    check_orbit_arguments("mean_motion", a=a, mu=mu)
     return jnp.sqrt(mu / jnp.asarray(a, dtype=float) ** 3)
 
 
 def true_to_mean_anomaly(nu: RealScalarLike, e: RealScalarLike) -> Float[Array, ""]:
-    r"""Mean anomaly $M = E - e\sin E$, $\tan(E/2) = \sqrt{(1-e)/(1+e)}\tan(\theta/2)$."""
+    r"""Mean anomaly $M = E - e\sin E$, $\tan(E/2) = \sqrt{(1-e)/(1+e)}\tan(\theta/2)$
+    (an ellipse: $0 \le e < 1$)."""
+    check_orbit_arguments("true_to_mean_anomaly", nu=nu, e=e)
     nu, e = jnp.asarray(nu, dtype=float), jnp.asarray(e, dtype=float)
     sin_half, cos_half = vectorized_sincos(nu / 2)
     big_e = 2.0 * jnp.arctan2(jnp.sqrt(1.0 - e) * sin_half, jnp.sqrt(1.0 + e) * cos_half)
@@ -148,8 +154,9 @@ def mean_to_true_anomaly(
 
     Starts at $E_0 = M + e\sin M$ and takes a fixed number of Newton steps (so the function
     is traceable and differentiable); 30 steps reach rounding for $e \le 0.9$. The result is
-    in $(-\pi, \pi]$ plus the whole revolutions of $M$.
+    in $(-\pi, \pi]$ plus the whole revolutions of $M$. An ellipse: $0 \le e < 1$.
     """
+    check_orbit_arguments("mean_to_true_anomaly", mean_anomaly=mean_anomaly, e=e)
     m, e = jnp.asarray(mean_anomaly, dtype=float), jnp.asarray(e, dtype=float)
     big_e = m + e * vectorized_sin(m)
     for _ in range(iterations):
@@ -168,7 +175,7 @@ def kepler_propagate(
     Only the true anomaly changes: $M(t + \Delta t) = M(t) + n\,\Delta t$, then Kepler's
     equation ([`mean_to_true_anomaly`][]).
     """
-    _check_elliptic("kepler_propagate", elements.a, elements.e)
+    _check_elements("kepler_propagate", elements, mu, dt=dt)
     m0 = true_to_mean_anomaly(elements.nu, elements.e)
     nu = mean_to_true_anomaly(m0 + mean_motion(elements.a, mu) * dt, elements.e)
     return elements._replace(nu=nu)

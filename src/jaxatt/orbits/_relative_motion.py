@@ -34,6 +34,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
 from ..numerics import vectorized_sincos
+from ._checks import check_orbit_arguments, check_orbit_state
 from ._constants import MU_EARTH
 from ._gravity import point_mass_gravity
 
@@ -42,7 +43,8 @@ from ._gravity import point_mass_gravity
 
 
 def semi_latus_rectum(a: RealScalarLike, e: RealScalarLike) -> Float[Array, ""]:
-    """$p = a(1 - e^2)$ [m]."""
+    """$p = a(1 - e^2)$ [m] of an ellipse (`a > 0`, `e` in [0, 1))."""
+    check_orbit_arguments("semi_latus_rectum", a=a, e=e)
     return jnp.asarray(a) * (1.0 - jnp.asarray(e) ** 2)
 
 
@@ -53,7 +55,11 @@ def anomaly_rates(
 
     $r_t = p/(1+e\cos\theta)$ [m], $\dot\theta = \sqrt{\mu/p^3}(1+e\cos\theta)^2$ [rad/s],
     $\ddot\theta = -2\frac{\mu}{p^3}e\sin\theta(1+e\cos\theta)^3$ [rad/s^2].
+
+    **Raises:** `ValueError` (concrete values) unless `a > 0`, $0 \le e < 1$, `mu > 0` and
+    `theta` is finite; the same holds for the functions below that take an orbit.
     """
+    check_orbit_arguments("anomaly_rates", theta=theta, a=a, e=e, mu=mu)
     p = semi_latus_rectum(a, e)
     k2 = jnp.sqrt(mu / p**3)
     sin_theta, cos_theta = vectorized_sincos(theta)
@@ -82,6 +88,7 @@ def relative_gravity(
     mu: RealScalarLike = MU_EARTH,
 ) -> Float[Array, "3"]:
     r"""$g(\theta, \rho)$: the differential gravity of the nonlinear model [m/s^2]."""
+    check_orbit_arguments("relative_gravity", theta=theta, a=a, e=e, mu=mu)
     rho = jnp.asarray(rho)
     r_t, _, _ = anomaly_rates(theta, a, e, mu)
     rel = rho + jnp.stack([r_t, jnp.zeros_like(r_t), jnp.zeros_like(r_t)])
@@ -98,6 +105,7 @@ def linear_relative_gravity(
     mu: RealScalarLike = MU_EARTH,
 ) -> Float[Array, "3"]:
     r"""First-order $g \approx \frac{\mu}{r_t^3}[2x, -y, -z]$ (Tschauner-Hempel; CW for $e=0$)."""
+    check_orbit_arguments("linear_relative_gravity", theta=theta, a=a, e=e, mu=mu)
     rho = jnp.asarray(rho)
     r_t, _, _ = anomaly_rates(theta, a, e, mu)
     return mu / r_t**3 * jnp.array([2.0, -1.0, -1.0]) * rho
@@ -117,6 +125,7 @@ def relative_acceleration(
 
     `linear=True` gives the Tschauner-Hempel linearisation (Clohessy-Wiltshire when `e = 0`).
     """
+    check_orbit_arguments("relative_acceleration", theta=theta, a=a, e=e, mu=mu)
     rho, rho_dot = jnp.asarray(rho), jnp.asarray(rho_dot)
     _, td, tdd = anomaly_rates(theta, a, e, mu)
     a1, a2 = coriolis_matrices(td, tdd)
@@ -130,8 +139,14 @@ def relative_acceleration(
 def hill_frame(r_t: Float[ArrayLike, "3"], v_t: Float[ArrayLike, "3"]) -> Float[Array, "3 3"]:
     r"""Rotation $C$ from inertial to Hill components: rows $\hat x, \hat y, \hat z$ (above).
 
-    $\rho_{Hill} = C\,\rho_{inertial}$; $C^T$ maps back.
+    $\rho_{Hill} = C\,\rho_{inertial}$; $C^T$ maps back. The target's state must be finite,
+    with $r_t \ne 0$ and $r_t\times v_t \ne 0$ (`ValueError` for concrete values).
     """
+    check_orbit_state("hill_frame", "r_t", r_t, "v_t", v_t)
+    return _hill_frame(r_t, v_t)
+
+
+def _hill_frame(r_t, v_t):
     r_t, v_t = jnp.asarray(r_t), jnp.asarray(v_t)
     x_hat = r_t / jnp.linalg.norm(r_t)
     h = jnp.cross(r_t, v_t)
@@ -148,8 +163,9 @@ def inertial_to_hill(
     r"""Chaser inertial state $(r_c, v_c)$ to the relative state $(\rho, \dot\rho)$ in the
     target's Hill frame: $\rho = C(r_c - r_t)$, $\dot\rho = C(v_c - v_t) - \omega\times\rho$,
     $\omega = [0, 0, \|r_t\times v_t\|/\|r_t\|^2]$."""
+    check_orbit_state("inertial_to_hill", "r_t", r_t, "v_t", v_t)
     r_t, v_t = jnp.asarray(r_t), jnp.asarray(v_t)
-    c = hill_frame(r_t, v_t)
+    c = _hill_frame(r_t, v_t)
     omega = jnp.stack(
         [0.0 * r_t[0], 0.0 * r_t[0], jnp.linalg.norm(jnp.cross(r_t, v_t)) / jnp.sum(r_t**2)]
     )
@@ -164,8 +180,9 @@ def hill_to_inertial(
     rho_dot: Float[ArrayLike, "3"],
 ) -> tuple[Float[Array, "3"], Float[Array, "3"]]:
     """The inverse of [`inertial_to_hill`][]: the chaser's inertial position and velocity."""
+    check_orbit_state("hill_to_inertial", "r_t", r_t, "v_t", v_t)
     r_t, v_t, rho = jnp.asarray(r_t), jnp.asarray(v_t), jnp.asarray(rho)
-    c = hill_frame(r_t, v_t)
+    c = _hill_frame(r_t, v_t)
     omega = jnp.stack(
         [0.0 * r_t[0], 0.0 * r_t[0], jnp.linalg.norm(jnp.cross(r_t, v_t)) / jnp.sum(r_t**2)]
     )
@@ -181,7 +198,10 @@ def clohessy_wiltshire_stm(n: RealScalarLike, t: RealScalarLike) -> Float[Array,
     $\ddot x = 3n^2x + 2n\dot y$, $\ddot y = -2n\dot x$, $\ddot z = -n^2 z$ (Hill frame above,
     mean motion $n$ [rad/s]); $[\rho(t), \dot\rho(t)] = \Phi(t)[\rho(0), \dot\rho(0)]$
     (Vallado, *Fundamentals of Astrodynamics*, eq. 6-66 in this axis order).
+
+    **Raises:** `ValueError` (concrete values) unless `n > 0` and `t` is finite.
     """
+    check_orbit_arguments("clohessy_wiltshire_stm", n=n, t=t)
     n, t = jnp.asarray(n), jnp.asarray(t)
     s, c = vectorized_sincos(n * t)
     zero, one = jnp.zeros_like(s), jnp.ones_like(s)
@@ -252,7 +272,11 @@ def tschauner_hempel_stm(
     !!! cite
         K. Yamanaka, F. Ankersen, "New state transition matrix for relative motion on an
         arbitrary elliptical orbit", J. Guidance, Control, and Dynamics 25(1):60-66, 2002.
+
+    **Raises:** `ValueError` (concrete values) unless `a > 0`, $0 \le e < 1$, `mu > 0` and
+    `theta0`, `t` are finite.
     """
+    check_orbit_arguments("tschauner_hempel_stm", theta0=theta0, t=t, a=a, e=e, mu=mu)
     from ._elements import mean_motion, mean_to_true_anomaly, true_to_mean_anomaly
 
     theta0, t = jnp.asarray(theta0, dtype=float), jnp.asarray(t, dtype=float)

@@ -24,11 +24,10 @@ from typing import ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
-import numpy as np
 from jaxtyping import Array, Float
 
 from .._custom_types import RealScalarLike
-from .._validation import check, check_finite, check_positive, check_shape
+from .._validation import check, check_finite, check_positive, check_scalar, check_shape
 from ..numerics import vectorized_sincos
 from ..orbits import MU_EARTH
 from ..orbits._relative_motion import anomaly_rates, hill_rotation
@@ -51,7 +50,7 @@ class FlyAround(AbstractReference):
     - `a` [m], `e`, `i`, `raan`, `argp` [rad], `mu`: the target's orbit; `theta0`: its true
       anomaly at `t0` (the plant's initial $\theta$).
     - `radius`: $R_f > 0$ [m]; `rate`: $w_f$ [rad/s] (sign = direction);
-      `normal`: $n_f$, any non-zero (3,) vector in Hill components (normalised here);
+      `normal`: $n_f$, any finite non-zero (3,) vector in Hill components (normalised here);
       `phase`: $\varphi_0$ [rad]; `t0` [s].
     """
 
@@ -86,6 +85,24 @@ class FlyAround(AbstractReference):
         mu=MU_EARTH,
     ):
         where = "FlyAround"
+        # Every orbit and circle parameter is one number: a (3,) `rate` or `t0` would broadcast
+        # into the (3,) position and give a plausible but meaningless trajectory.
+        a, e, i, raan, argp, radius, rate, theta0, phase, t0, mu = (
+            check_scalar(where, n, v)
+            for n, v in (
+                ("a", a),
+                ("e", e),
+                ("i", i),
+                ("raan", raan),
+                ("argp", argp),
+                ("radius", radius),
+                ("rate", rate),
+                ("theta0", theta0),
+                ("phase", phase),
+                ("t0", t0),
+                ("mu", mu),
+            )
+        )
         self.a = check_positive(where, "a", a)
         self.e = check(where, "e", e, lambda xp, x: (x >= 0) & (x < 1), "must lie in [0, 1)")
         self.i, self.raan, self.argp = (
@@ -95,9 +112,15 @@ class FlyAround(AbstractReference):
         self.theta0 = check_finite(where, "theta0", theta0)
         self.radius = check_positive(where, "radius", radius)
         self.rate = check_finite(where, "rate", rate)
-        normal = check_shape(where, "normal", normal, (3,))
-        if not np.linalg.norm(np.asarray(normal)) > 0:
-            raise ValueError(f"{where}: `normal` must be a non-zero vector, got {normal}.")
+        # Finite as well as non-zero: an infinite entry normalises to NaN. One predicate serves
+        # a concrete normal (host check) and a traced one (run-time check).
+        normal = check(
+            where,
+            "normal",
+            check_shape(where, "normal", normal, (3,)),
+            lambda xp, n: xp.all(xp.isfinite(n)) & (xp.sum(n * n) > 0),
+            "must be a finite non-zero vector",
+        )
         self.normal = normal / jnp.linalg.norm(normal)
         self.phase = check_finite(where, "phase", phase)
         self.t0 = check_finite(where, "t0", t0)

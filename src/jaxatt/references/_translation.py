@@ -8,7 +8,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
-from .._validation import check_shape
+from .._validation import check_finite, check_shape
 from ._base import AbstractReference, AttitudeReference
 from ._constant import ConstantAttitude
 
@@ -34,7 +34,8 @@ class ConstantPosition(AbstractReference):
 
     def __init__(self, position: Float[ArrayLike, "3"] | None = None):
         position = jnp.zeros(3) if position is None else position
-        self.position = check_shape("ConstantPosition", "position", position, (3,))
+        position = check_shape("ConstantPosition", "position", position, (3,))
+        self.position = check_finite("ConstantPosition", "position", position)
 
     def init(self, t0: RealScalarLike) -> None:
         del t0

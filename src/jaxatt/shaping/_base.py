@@ -7,17 +7,24 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
-from .._validation import check, check_positive
+from .._validation import check, check_positive, is_traced
 
 
 def damped_period(frequency: Float[ArrayLike, "..."], damping: Float[ArrayLike, "..."]):
-    r"""$T = 2\pi/(\omega\sqrt{1 - \zeta^2})$ [s], the damped period of a mode."""
+    r"""$T = 2\pi/(\omega\sqrt{1 - \zeta^2})$ [s], the damped period of a mode.
+
+    **Raises:** `ValueError` for a concrete `frequency <= 0` or `damping` outside [0, 1) (the
+    period would be infinite or NaN). Traced values are not checked: the shapers call this on
+    their own fields, which their constructors checked.
+    """
+    if not (is_traced(frequency) or is_traced(damping)):
+        frequency, damping = check_mode_arrays("damped_period", frequency, damping)
     frequency = jnp.asarray(frequency)
     return 2 * jnp.pi / (frequency * jnp.sqrt(1 - jnp.asarray(damping) ** 2))
 
 
-def check_mode(where: str, frequency, damping) -> tuple[Array, Array]:
-    """A design mode: frequency > 0 [rad/s] and damping ratio in [0, 1)."""
+def check_mode_arrays(where: str, frequency, damping) -> tuple[Array, Array]:
+    """Design modes of any shape: frequency > 0 [rad/s] and damping ratio in [0, 1)."""
     frequency = check_positive(where, "frequency", frequency)
     damping = check(
         where,
@@ -26,6 +33,33 @@ def check_mode(where: str, frequency, damping) -> tuple[Array, Array]:
         lambda xp, z: xp.isfinite(z) & (z >= 0) & (z < 1),
         "must lie in [0, 1) (an underdamped mode)",
     )
+    return frequency, damping
+
+
+def check_evaluation_mode(where: str, frequency, damping) -> tuple[Array, Array]:
+    r"""A mode at which a residual vibration is evaluated: frequency >= 0 [rad/s] (0 gives the
+    limit of a rigid mode) and damping ratio in [0, 1] (above 1 the damped frequency
+    $\omega\sqrt{1 - \zeta^2}$ is imaginary and the formulas give NaN)."""
+    frequency = check(
+        where,
+        "frequency",
+        frequency,
+        lambda xp, w: xp.isfinite(w) & (w >= 0),
+        "must be non-negative",
+    )
+    damping = check(
+        where,
+        "damping",
+        damping,
+        lambda xp, z: xp.isfinite(z) & (z >= 0) & (z <= 1),
+        "must lie in [0, 1]",
+    )
+    return frequency, damping
+
+
+def check_mode(where: str, frequency, damping) -> tuple[Array, Array]:
+    """A design mode: frequency > 0 [rad/s] and damping ratio in [0, 1)."""
+    frequency, damping = check_mode_arrays(where, frequency, damping)
     if frequency.shape != () or damping.shape != ():
         raise ValueError(f"{where}: `frequency` and `damping` must be scalars.")
     return frequency, damping

@@ -17,7 +17,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
-from ._base import AbstractShaper, check_mode, damped_period
+from ._base import AbstractShaper, check_evaluation_mode, check_mode, damped_period
 
 
 class AbstractImpulseShaper(AbstractShaper):
@@ -40,8 +40,11 @@ class AbstractImpulseShaper(AbstractShaper):
         return jnp.sum(amplitudes * (t >= times), axis=-1)
 
     def residual_vibration(self, frequency, damping) -> Float[Array, "..."]:
+        frequency, damping = check_evaluation_mode(
+            f"{type(self).__name__}.residual_vibration", frequency, damping
+        )
         amplitudes, times = self.impulses()
-        frequency, damping = jnp.broadcast_arrays(jnp.asarray(frequency), jnp.asarray(damping))
+        frequency, damping = jnp.broadcast_arrays(frequency, damping)
         frequency, damping = frequency[..., None], damping[..., None]
         shape = (1,) * (frequency.ndim - 1) + (-1,)
         amplitudes, times = amplitudes.reshape(shape), times.reshape(shape)

@@ -13,7 +13,7 @@ import jax.numpy as jnp
 from jaxtyping import ArrayLike, Float
 
 from .._custom_types import Quaternion, RealScalarLike
-from .._validation import check_unit_quaternion
+from .._validation import check_finite, check_scalar, check_unit_quaternion
 from ..references import AbstractReference, AttitudeReference
 from ..rotations import quat_conjugate, quat_multiply
 from ._base import AbstractShaper
@@ -26,7 +26,7 @@ class ShapedAttitude(AbstractReference):
     - `shaper`: an [`AbstractShaper`][] (e.g. [`ZeroVibrationSmoother`][]).
     - `q_start`: $q_0$, the attitude the manoeuvre starts from (unit quaternion).
     - `q_target`: $\bar q_c$, the commanded attitude (unit quaternion).
-    - `t_start`: $t_s$ [s], when the step is applied (default 0).
+    - `t_start`: $t_s$ [s], when the step is applied (a finite scalar, default 0).
 
     The output's $\omega_d = 2[q_c^*\otimes\dot q_c]_v$ and $\dot\omega_d$ are exact time
     derivatives (`jax.jvp`); a staircase (impulse shaper) has $\omega_d = 0$ between its
@@ -53,6 +53,11 @@ class ShapedAttitude(AbstractReference):
         self.shaper = shaper
         self.q_start = check_unit_quaternion("ShapedAttitude", "q_start", q_start)
         self.q_target = check_unit_quaternion("ShapedAttitude", "q_target", q_target)
+        # A NaN start made every command NaN, and an infinite one a step that never (or always)
+        # happened; a (3,) start failed in `command` with a broadcasting error.
+        t_start = check_finite(
+            "ShapedAttitude", "t_start", check_scalar("ShapedAttitude", "t_start", t_start)
+        )
         self.t_start = jnp.asarray(t_start, self.q_start.dtype)
 
     def command(self, t: RealScalarLike) -> Quaternion:

@@ -29,7 +29,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
 from ..numerics import clip, minimum
-from ._base import AbstractShaper, check_mode, damped_period
+from ._base import AbstractShaper, check_evaluation_mode, check_mode, damped_period
 
 
 _SERIES = tuple((-1) ** n * (n - 1) / float(__import__("math").factorial(n)) for n in range(2, 13))
@@ -114,8 +114,9 @@ class ZeroVibrationSmoother(AbstractShaper):
         return jnp.where(t <= period, first, second)
 
     def residual_vibration(self, frequency, damping) -> Float[Array, "..."]:
-        frequency = jnp.asarray(frequency)
-        damping = jnp.asarray(damping)
+        frequency, damping = check_evaluation_mode(
+            "ZeroVibrationSmoother.residual_vibration", frequency, damping
+        )
         period = self.period
         damped = frequency * jnp.sqrt(1 - damping**2)
         z = (damping * frequency - self.decay) + 1j * damped

@@ -15,7 +15,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
-from .._validation import check, check_finite, check_positive
+from .._validation import check, check_finite, check_positive, check_scalar
 
 
 class AbstractSignal(eqx.Module):
@@ -121,9 +121,9 @@ class Pulse(AbstractSignal):
 
     **Arguments:**
     - `amplitude`: pulse height, any shape.
-    - `start`: $t_s$ [s].
-    - `width`: $w > 0$ [s].
-    - `period`: $P > w$ [s] or `None`.
+    - `start`: $t_s$ [s], a scalar.
+    - `width`: $w > 0$ [s], a scalar.
+    - `period`: $P > w$ [s], a scalar, or `None`.
     """
 
     amplitude: Float[Array, "..."]
@@ -139,14 +139,20 @@ class Pulse(AbstractSignal):
         period: RealScalarLike | None = None,
     ):
         self.amplitude = check_finite("Pulse", "amplitude", amplitude)
-        self.start = check_finite("Pulse", "start", start)
-        self.width = check_positive("Pulse", "width", width)
+        # `start`, `width` and `period` are one number each: a (3,) one broadcast against the
+        # amplitude and silently gave a different pulse per entry.
+        self.start = check_finite("Pulse", "start", check_scalar("Pulse", "start", start))
+        self.width = check_positive("Pulse", "width", check_scalar("Pulse", "width", width))
         if period is None:
             self.period = None
         else:
             width_value = self.width
             self.period = check(
-                "Pulse", "period", period, lambda xp, p: p > width_value, "must exceed `width`"
+                "Pulse",
+                "period",
+                check_scalar("Pulse", "period", period),
+                lambda xp, p: p > width_value,
+                "must exceed `width`",
             )
 
     def __call__(self, t: RealScalarLike) -> Float[Array, "..."]:
