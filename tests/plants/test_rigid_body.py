@@ -18,7 +18,7 @@ from jaxatt.plants import (
     Sum,
 )
 from jaxatt.rotations import mrp_from_quat, mrp_to_dcm, quat_to_dcm
-from jaxatt.simulation import ClosedLoop
+from jaxatt.simulation import ClosedLoop, ZeroOrderHold
 
 
 J_ASYM = jnp.array([[10.0, 0.5, -0.3], [0.5, 7.0, 0.2], [-0.3, 0.2, 4.0]])
@@ -214,3 +214,22 @@ def test_a_signal_reused_across_rebuilds_is_still_shape_checked():
         with pytest.raises(ValueError, match=r"`inertia_perturbation` must return .* \(3, 3\)"):
             RigidBody(jnp.eye(3), inertia_perturbation=good)
     RigidBody(jnp.eye(3), inertia_perturbation=Constant(jnp.zeros((3, 3))), disturbance=good)
+
+
+@pytest.mark.usefixtures("no_jaxtyping")
+@pytest.mark.parametrize(
+    "build, needle",
+    [
+        (lambda v: RigidBodyQuaternion(jnp.eye(3), renormalize=v), "RigidBodyQuaternion"),
+        (lambda v: RigidBodyMRP(jnp.eye(3), shadow_switching=v), "RigidBodyMRP"),
+        (lambda v: ZeroOrderHold(0.01, delay=v), "ZeroOrderHold"),
+    ],
+)
+def test_switches_must_be_booleans(build, needle):
+    """`bool("False")` is True: a switch given as a string (or 0/1, or an array) silently chose
+    the other model (e.g. `shadow_switching="False"` kept the shadow-set switch on). The
+    switches of the controllers, plants, surfaces and samplings are checked alike."""
+    for bad in ("False", "no", 0, 1.0, None):
+        with pytest.raises(ValueError, match=rf"{needle}: `\w+` must be True or False"):
+            build(bad)
+    build(False), build(True), build(np.bool_(True))

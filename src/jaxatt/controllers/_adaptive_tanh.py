@@ -41,7 +41,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import Mat33, RealScalarLike, Scalar, Vec3
-from .._validation import check_gain_shape, check_nonnegative, check_positive, check_spd
+from .._validation import check_flag, check_gain_shape, check_nonnegative, check_positive, check_spd
 from ..plants import MRPState, QuaternionState
 from ..reaching import AbstractSwitching, Tanh
 from ..references import AttitudeReference
@@ -247,7 +247,7 @@ class AdaptiveTanhMRP(AbstractAdaptiveTanhSlidingMode):
         ) = _check_common(
             "AdaptiveTanhMRP", inertia, slope, gain, gamma, leakage, switching, d_hat0
         )
-        self.short_rotation = bool(short_rotation)
+        self.short_rotation = check_flag("AdaptiveTanhMRP", "short_rotation", short_rotation)
 
     def attitude_errors(
         self, measurement: MRPState, reference: AttitudeReference

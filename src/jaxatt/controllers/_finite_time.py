@@ -40,7 +40,13 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 
 from .._constants import is_known_zero
 from .._custom_types import MRP, Mat33, RealScalarLike, Scalar, Vec3
-from .._validation import check_gain_shape, check_in_open_interval, check_positive, check_spd
+from .._validation import (
+    check_flag,
+    check_gain_shape,
+    check_in_open_interval,
+    check_positive,
+    check_spd,
+)
 from ..numerics import abs_pow, maximum, sig_pow
 from ..plants import MRPState
 from ..references import AttitudeReference
@@ -280,7 +286,9 @@ class RateConstrainedFiniteTimeMRP(AbstractController):
             if getattr(self, name).shape != ():
                 raise ValueError(f"{where}: `{name}` must be a scalar.")
         self.inertia = _check_inertia(where, inertia)
-        self.allow_inadmissible = bool(allow_inadmissible)
+        self.allow_inadmissible = check_flag(
+            "RateConstrainedFiniteTimeMRP", "allow_inadmissible", allow_inadmissible
+        )
 
     @property
     def alpha2(self) -> Float[Array, ""]:

@@ -13,6 +13,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._validation import (
+    check_flag,
     check_gain_shape,
     check_in_open_interval,
     check_nonnegative,
@@ -141,8 +142,8 @@ class AdaptiveTerminalSixDof(AbstractController):
         self.p0, self.p1 = check_positive(where, "p0", p0), check_positive(where, "p1", p1)
         self.mass = check_positive(where, "mass", mass)
         self.force_bound = check_nonnegative(where, "force_bound", force_bound)
-        self.adaptive = bool(adaptive)
-        self.literal = bool(literal)
+        self.adaptive = check_flag("AdaptiveTerminalSixDof", "adaptive", adaptive)
+        self.literal = check_flag("AdaptiveTerminalSixDof", "literal", literal)
         self.attitude_boundary = (
             None
             if attitude_boundary is None

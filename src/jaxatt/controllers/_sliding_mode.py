@@ -6,7 +6,7 @@ import equinox as eqx
 from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike, Vec3
-from .._validation import check_spd
+from .._validation import check_flag, check_spd
 from ..numerics import materialized
 from ..plants import QuaternionState
 from ..reaching import AbstractReachingLaw
@@ -74,7 +74,9 @@ class SlidingModeTracking(AbstractController):
         self.reaching_law = reaching_law
         self.inertia = check_spd("SlidingModeTracking", "inertia", inertia)
         self.robust = robust
-        self.surface_feedforward = bool(surface_feedforward)
+        self.surface_feedforward = check_flag(
+            "SlidingModeTracking", "surface_feedforward", surface_feedforward
+        )
 
     def init(self, t0: RealScalarLike, measurement: QuaternionState, reference) -> None:
         del t0, measurement, reference

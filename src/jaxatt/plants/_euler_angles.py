@@ -47,6 +47,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 from .._custom_types import RealScalarLike, Vec3
 from .._validation import (
     check_batched_shape,
+    check_flag,
     check_in_open_interval,
     check_tree_finite,
     is_traced,
@@ -98,7 +99,7 @@ class RigidBodyEuler(AbstractPlant):
         gimbal_margin: RealScalarLike = 1e-6,
     ):
         self.body = RigidBody(inertia, None, disturbance)
-        self.literal = bool(literal)
+        self.literal = check_flag("RigidBodyEuler", "literal", literal)
         self.gimbal_margin = check_in_open_interval(
             "RigidBodyEuler", "gimbal_margin", gimbal_margin, 0.0, 1.0
         )

@@ -33,6 +33,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 from .._custom_types import MRP, Mat33, Quaternion, RealScalarLike, Vec3
 from .._validation import (
     check_batched_shape,
+    check_flag,
     check_spd,
     check_tree_finite,
     check_unit_quaternions,
@@ -239,7 +240,7 @@ class RigidBodyQuaternion(AbstractPlant):
         renormalize: bool = False,
     ):
         self.body = RigidBody(inertia, inertia_perturbation, disturbance)
-        self.renormalize = bool(renormalize)
+        self.renormalize = check_flag("RigidBodyQuaternion", "renormalize", renormalize)
 
     def vector_field(self, t: RealScalarLike, state: QuaternionState, control: Vec3):
         return QuaternionState(
@@ -332,7 +333,7 @@ class RigidBodyMRP(AbstractPlant):
         shadow_switching: bool = True,
     ):
         self.body = RigidBody(inertia, inertia_perturbation, disturbance)
-        self.shadow_switching = bool(shadow_switching)
+        self.shadow_switching = check_flag("RigidBodyMRP", "shadow_switching", shadow_switching)
 
     def vector_field(self, t: RealScalarLike, state: MRPState, control: Vec3) -> MRPState:
         return MRPState(

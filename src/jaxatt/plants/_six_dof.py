@@ -30,6 +30,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 from .._custom_types import RealScalarLike
 from .._validation import (
     check_batched_shape,
+    check_flag,
     check_positive,
     check_tree_finite,
     check_unit_quaternions,
@@ -129,7 +130,7 @@ class SixDof(AbstractPlant):
                 ">= the smallest eigenvalue of `inertia` "
                 f"({np.linalg.eigvalsh(np.asarray(self.body.inertia))[0]:.6g})."
             )
-        self.renormalize = bool(renormalize)
+        self.renormalize = check_flag("SixDof", "renormalize", renormalize)
 
     @property
     def inertia(self) -> Float[Array, "3 3"]:

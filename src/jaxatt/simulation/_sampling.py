@@ -5,7 +5,7 @@ import math
 
 import equinox as eqx
 
-from .._validation import is_real_scalar
+from .._validation import check_flag, is_real_scalar
 
 
 class AbstractSampling(eqx.Module):
@@ -65,7 +65,7 @@ class ZeroOrderHold(AbstractSampling):
         if not (math.isfinite(period) and period > 0):
             raise ValueError(f"ZeroOrderHold: `period` must be positive, got period={period}.")
         self.period = period
-        self.delayed = bool(delay)
+        self.delayed = check_flag("ZeroOrderHold", "delay", delay)
 
     @property
     def delay(self) -> bool:

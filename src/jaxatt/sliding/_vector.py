@@ -12,7 +12,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._validation import check_gain_shape, check_in_open_interval, check_positive
+from .._validation import check_flag, check_gain_shape, check_in_open_interval, check_positive
 from ..numerics import (
     FractionalMemory,
     abs_pow,
@@ -126,7 +126,7 @@ class FractionalSurface(eqx.Module):
                 f"{where}: `capacity` must be a positive integer (samples kept), got {capacity!r}."
             )
         self.capacity = int(capacity)
-        self.caputo = bool(caputo)
+        self.caputo = check_flag("FractionalSurface", "caputo", caputo)
 
     def _sample(self, e, e0):
         return e - e0 if self.caputo else e
