@@ -254,3 +254,10 @@ def test_bad_input_is_refused_before_running():
         )
     with pytest.raises(ValueError, match="gamma"):
         wu2018.controller(gamma=1.5)
+
+
+@pytest.mark.usefixtures("no_jaxtyping")
+def test_a_switch_given_as_a_string_is_refused():
+    """`bool("no")` is True: the template auxiliary was switched on by `"no"`."""
+    with pytest.raises(ValueError, match="`template_auxiliary` must be True or False"):
+        wu2018.controller(template_auxiliary="no")

@@ -57,7 +57,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .._validation import check_nonnegative, check_positive, check_spd
+from .._validation import check_flag, check_nonnegative, check_positive, check_spd
 from ..numerics import clip, maximum, minimum, safe_norm, sig_pow, solve3
 from ..plants import Proximity, ProximityState
 from ..references import PoseReference
@@ -194,7 +194,8 @@ class SafeApproachSlidingMode(AbstractController):
             None if rate_limit is None else check_positive(where, "rate_limit", rate_limit)
         )
         self.floor = check_positive(where, "floor", floor)
-        self.integral_start, self.template_auxiliary = integral_start, bool(template_auxiliary)
+        self.integral_start = integral_start
+        self.template_auxiliary = check_flag(where, "template_auxiliary", template_auxiliary)
         for name, value in dict(
             k1=k1,
             k2=k2,

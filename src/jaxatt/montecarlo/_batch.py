@@ -23,7 +23,7 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from jaxtyping import Array, ArrayLike, PyTree
 
 from .._paths import parse_path, path_selector
-from .._validation import check_tree_finite
+from .._validation import check_flag, check_tree_finite
 from ..metrics import AbstractMetric
 from ..simulation import (
     RK4,
@@ -394,8 +394,9 @@ def batch_field(
     left unchecked; with traced `values` the constructors' traced checks are not run either.
     The checks cost one constructor call per sample and module on the path: from well under a
     millisecond for a gain to about 0.5 ms for a `RigidBody` (0.52 s for 1000 inertias of Chen
-    2022's loop on the 2-core Xeon, against 2.35 s when each rebuild traced its signals' shape
-    check again; a signal's shape is now traced once per signal object).
+    2022's loop on the 2-core Xeon, against 2.40 s when each rebuild traced its signals' shape
+    check again, `benchmarks/bench_batch_field.py`; a signal's shape is traced once per signal
+    object).
 
     !!! example
         ```python
@@ -619,6 +620,7 @@ def monte_carlo(
     )
     metrics = default_metrics(closed_loop) if metrics is None else metrics
     metrics = _check_metrics(where, metrics)
+    keep_trajectories = check_flag(where, "keep_trajectories", keep_trajectories)
     if batch_size is not None:
         batch_size = _check_positive_int("batch_size", batch_size)
     x0s, n = check_batch_states(where, closed_loop, x0s)
@@ -642,7 +644,7 @@ def monte_carlo(
         sim,
         metrics,
         batched=xs[1],
-        keep_trajectories=bool(keep_trajectories),
+        keep_trajectories=keep_trajectories,
         batch_size=batch_size,
         sharding=sharding,
         stream=not keep_trajectories and streamable(metrics),

@@ -44,7 +44,7 @@ from ..reaching import Exponential, Saturation
 from ..references import FlyAround
 from ..rotations import quat_from_axis_angle
 from ..signals import Sinusoid
-from ..simulation import ClosedLoop, EnergyMeter, Simulation, Trajectory, simulate
+from ..simulation import ClosedLoop, EnergyMeter, Simulation, Status, Trajectory, simulate
 from ..sliding import LinearSurface, PDSurface
 from ._io import write_json
 from ._protocol import Scenario
@@ -197,10 +197,11 @@ def _summary(trajs: Trajectory, seed: int, horizon: float) -> dict:
     ]
 
     def values(key):
-        return [
-            m[key] if m["status"] == 0 and m[key] is not None and math.isfinite(m[key]) else None
-            for m in per_sample
-        ]
+        def usable(m) -> bool:
+            successful = m["status"] == Status.successful
+            return successful and m[key] is not None and math.isfinite(m[key])
+
+        return [m[key] if usable(m) else None for m in per_sample]
 
     def worst(key):
         found = values(key)
@@ -211,7 +212,7 @@ def _summary(trajs: Trajectory, seed: int, horizon: float) -> dict:
         "samples": len(per_sample),
         "seed": seed,
         "horizon": horizon,
-        "successful": sum(m["status"] == 0 for m in per_sample),
+        "successful": sum(m["status"] == Status.successful for m in per_sample),
         "worst_position_settle_time": worst("position_settle_time_0.1m"),
         "median_position_settle_time": None
         if any(v is None for v in settle)
