@@ -107,6 +107,27 @@ def test_bad_variants_and_tuning_sizes_are_refused(tmp_path):
         shi2024_tuning.VibrationObjective(-1.0)
 
 
+def test_a_failed_sample_makes_the_vibration_loss_inf(monkeypatch):
+    # The library's rule for objectives: a failed sample gives an inf loss (`tune` stops on
+    # it). Here one of two samples violated a constraint; its energy, NaN by the failure rule,
+    # made the weighted loss NaN before. The two runs are stood in (no simulation).
+    from jaxatt.simulation import Status
+
+    runs = iter([(50.0, 0.01, Status.successful), (40.0, 0.02, Status.constraint_violated)])
+
+    def stand_in(loop, x0, sim, tolerance, window):
+        t, e, status = next(runs)
+        return jnp.asarray(t), jnp.asarray(e), jnp.asarray(int(status))
+
+    monkeypatch.setattr(shi2024_tuning, "_objectives_and_status", stand_in)
+    x0s = shi2024_tuning.initial_states(2)
+    loss, aux = shi2024_tuning.VibrationObjective(100.0)(shi2024_tuning.template(), x0s)
+    assert float(loss) == np.inf
+    np.testing.assert_array_equal(aux["convergence_time"], [50.0, np.inf])
+    np.testing.assert_array_equal(aux["residual_modal_energy"], [0.01, np.nan])
+    np.testing.assert_array_equal(aux["status"], [0, int(Status.constraint_violated)])
+
+
 def test_a_failed_case_supports_no_claim():
     # Regression: a failed case 2 (its settle times never: None) was "slower than case 1".
     from jaxatt.scenarios import shi2024

@@ -52,3 +52,9 @@ def test_gradients_match_finite_differences():
         fd = (np.asarray(plus) - np.asarray(minus)) / (2 * h)
         np.testing.assert_allclose(column, fd, rtol=2e-3, atol=1e-9)
         assert np.all(np.abs(column) > 1e-6)  # every parameter moves both objectives
+
+    # A failed run (the same compiled program): a NaN gain (a tuner step gone wrong) makes the
+    # state non-finite; the objectives are the library's failure values (inf time, NaN
+    # energy), not the NaN or the extrapolated time the trajectory would give.
+    failed, _ = directional(p0.at[1].set(jnp.nan), jnp.zeros(4))
+    assert float(failed[0]) == np.inf and np.isnan(float(failed[1]))

@@ -37,7 +37,7 @@ from .. import tune as tuning
 from ..metrics import convergence_time
 from ..numerics import amax
 from ..rotations import attitude_error_quat
-from ..simulation import AbstractClosedLoop, ClosedLoop, Simulation, integrate
+from ..simulation import AbstractClosedLoop, ClosedLoop, Simulation, Status, integrate
 from . import shi2024
 from ._io import write_json
 from ._protocol import TuningProblem
@@ -56,20 +56,31 @@ LEARNING_RATE = 0.05
 
 def objectives(
     loop: AbstractClosedLoop,
-    x0: PyTree,
+    x0: PyTree[Array],
     sim: Simulation,
     tolerance: float | Array = TOLERANCE,
     window: float = WINDOW,
 ) -> tuple[Float[Array, ""], Float[Array, ""]]:
     """`(T_c, E_n)`: the attitude convergence time [s] and the mean modal energy over the
-    last `window` s [J] of one run (traceable, differentiable)."""
+    last `window` s [J] of one run (traceable, differentiable).
+
+    A run that failed (any [`jaxatt.simulation.Status`][] but `successful`: a non-finite
+    state, a violated constraint, an invalid plant) has `T_c = inf` and `E_n = NaN`, the
+    library's rule for a failed sample: its trajectory after the failure is not physical."""
+    time, energy, status = _objectives_and_status(loop, x0, sim, tolerance, window)
+    successful = status == Status.successful
+    return jnp.where(successful, time, jnp.inf), jnp.where(successful, energy, jnp.nan)
+
+
+def _objectives_and_status(loop, x0, sim, tolerance, window):
+    """`objectives` before the failure rule, and the run's status code."""
     traj = integrate(loop, x0, sim)
     target = jnp.asarray(shi2024.Q_TARGET)
     error = jax.vmap(lambda q: attitude_error_quat(q, target)[1:])(traj.plant_states.q)
     att = amax(jnp.abs(error), axis=1)
     late = traj.ts >= traj.ts[-1] - window
     energy = jnp.sum(jnp.where(late, traj.signals["modal_energy"], 0.0)) / jnp.sum(late)
-    return convergence_time(traj.ts, att, tolerance), energy
+    return convergence_time(traj.ts, att, tolerance), energy, traj.status
 
 
 def simulation(horizon: float = HORIZON, dt: float = DT) -> Simulation:
@@ -83,7 +94,8 @@ class VibrationObjective(tuning.AbstractObjective):
     r"""$L = \mathrm{mean}(T_c) + w\,\mathrm{mean}(\bar E_n)$ over a (small) batch of initial
     states (see the module docstring); aux: per-sample `convergence_time` and
     `residual_modal_energy`. The samples are unrolled (no `vmap`: the batches are tiny and a
-    `vmap` doubles the compile time)."""
+    `vmap` doubles the compile time). A failed sample (see `objectives`) makes the loss `inf`,
+    and `aux["status"]` holds each sample's [`jaxatt.simulation.Status`][] code."""
 
     weight: Float[Array, ""]
     simulation: Simulation
@@ -117,15 +129,25 @@ class VibrationObjective(tuning.AbstractObjective):
 
     def __call__(self, loop, x0s):
         n = jnp.shape(jtu.tree_leaves(x0s)[0])[0]
-        times, energies = [], []
+        times, energies, statuses = [], [], []
         for i in range(n):
             x0 = jtu.tree_map(lambda x, i=i: x[i], x0s)
-            t, e = objectives(loop, x0, self.simulation, self.tolerance, self.window)
+            t, e, status = _objectives_and_status(
+                loop, x0, self.simulation, self.tolerance, self.window
+            )
             times.append(t)
             energies.append(e)
-        times, energies = jnp.stack(times), jnp.stack(energies)
+            statuses.append(status)
+        status = jnp.stack(statuses)
+        successful = status == Status.successful
+        times = jnp.where(successful, jnp.stack(times), jnp.inf)
+        energies = jnp.where(successful, jnp.stack(energies), jnp.nan)
         loss = jnp.mean(times) + self.weight * jnp.mean(energies)
-        return loss, {"convergence_time": times, "residual_modal_energy": energies}
+        # The library's rule (`jaxatt.tune`): a failed sample makes the loss inf (not the NaN
+        # its energy would give, nor a finite value), so that `tune` stops on it.
+        loss = jnp.where(jnp.all(successful), loss, jnp.inf)
+        aux = {"convergence_time": times, "residual_modal_energy": energies}
+        return loss, aux | {"status": status}
 
 
 def template(frequency: float = START_FREQUENCY) -> ClosedLoop:
