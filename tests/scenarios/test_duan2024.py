@@ -110,3 +110,14 @@ def test_an_inconclusive_lmi_solve_is_undecided_not_infeasible(monkeypatch):
     assert claims["lmi_feasible_at_0_26_corrected"] is False
     assert claims["lmi_below_exact"] is False
     assert claims["converges_at_0_26"] and claims["consensus_to_initial_average_periodic"]
+
+
+def test_textbook_h_star_says_when_there_is_no_crossing():
+    """The textbook h* bisection on pairs without an answer: a pair stable at every sampling
+    interval has no crossing (inf; the grid's argmax had bracketed the first cell, 0.01 s), and
+    a NaN pair has no answer (NaN; a NaN radius had counted as stable, giving 3.0 s)."""
+    import jax.numpy as jnp
+
+    a, b = jnp.asarray(duan.TEXTBOOK_A), jnp.asarray(duan.TEXTBOOK_B)
+    assert float(duan._textbook_h_star(-jnp.eye(a.shape[0]), jnp.zeros_like(b))) == np.inf
+    assert np.isnan(float(duan._textbook_h_star(a * jnp.nan, b)))

@@ -20,6 +20,7 @@ $\mathrm d h^* = -\,\partial_\theta\rho \,\mathrm d\theta / \partial_h\rho$ at $
 """
 
 import functools
+from collections.abc import Callable
 
 import equinox as eqx
 import jax
@@ -102,11 +103,16 @@ def _worst_mode_radius(network: TwoLayerNetwork, h) -> Array:
     return jnp.max(mode_spectral_radii(network, h))
 
 
-@eqx.filter_custom_jvp
-def _h_star(network: TwoLayerNetwork, *, h_max: float, grid: int, iterations: int) -> Array:
-    dtype = network.intra_laplacian.dtype
+def _first_unstable_interval(
+    radius: Callable[[Array], Array], *, h_max: float, grid: int, iterations: int, dtype
+) -> Array:
+    r"""The first $h \in (0, h_{max}]$ at which `radius(h)` (a spectral radius) reaches 1:
+    `inf` if it stays below 1 on the grid, NaN when a radius on the way is NaN (a NaN radius
+    is never taken for a stable one). The radii on `grid` equally spaced points locate the
+    first crossing, then `iterations` bisection steps shrink its bracket. Traceable; its
+    derivative is not the root's (`_h_star` supplies that by the implicit function theorem)."""
     hs = jnp.linspace(h_max / grid, h_max, grid, dtype=dtype)
-    radii = jax.vmap(lambda h: _worst_mode_radius(network, h))(hs)
+    radii = jax.vmap(radius)(hs)
     unstable = ~(radii < 1)  # a NaN radius is not a stable one
     first = jnp.argmax(unstable)
     hi = jnp.where(jnp.any(unstable), hs[first], jnp.inf)
@@ -115,13 +121,24 @@ def _h_star(network: TwoLayerNetwork, *, h_max: float, grid: int, iterations: in
     def bisect(_, bracket):
         lo, hi = bracket
         mid = 0.5 * (lo + hi)
-        stable = _worst_mode_radius(network, mid) < 1
+        stable = radius(mid) < 1
         return jnp.where(stable, mid, lo), jnp.where(stable, hi, mid)
 
     lo, hi = lax.fori_loop(0, iterations, bisect, (lo, jnp.where(jnp.isfinite(hi), hi, h_max)))
     # The bracket ends on a radius >= 1 (a crossing) or on a NaN radius (no answer).
-    crossing = jnp.isfinite(_worst_mode_radius(network, hi))
+    crossing = jnp.isfinite(radius(hi))
     return jnp.where(jnp.any(unstable), jnp.where(crossing, 0.5 * (lo + hi), jnp.nan), jnp.inf)
+
+
+@eqx.filter_custom_jvp
+def _h_star(network: TwoLayerNetwork, *, h_max: float, grid: int, iterations: int) -> Array:
+    return _first_unstable_interval(
+        lambda h: _worst_mode_radius(network, h),
+        h_max=h_max,
+        grid=grid,
+        iterations=iterations,
+        dtype=network.intra_laplacian.dtype,
+    )
 
 
 @_h_star.def_jvp

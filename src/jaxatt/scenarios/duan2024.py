@@ -236,23 +236,18 @@ def textbook_example(tol: float = LMI_TOLERANCE) -> dict:
 
 @eqx.filter_jit
 def _textbook_h_star(a: jax.Array, b: jax.Array) -> jax.Array:
+    """The first sampling interval in (0, 3] s at which $\rho(F(h)) = 1$ for the textbook
+    pair (inf if none, NaN if a radius on the way is NaN)."""
     from ..networks import sampled_transition, spectral_radius
+    from ..networks._exact import _first_unstable_interval
 
-    def radius(h):
-        return spectral_radius(sampled_transition(a, b, h))
-
-    hs = jnp.linspace(0.01, 3.0, 300)
-    unstable = jax.vmap(radius)(hs) >= 1
-    first = jnp.argmax(unstable)
-
-    def bisect(_, bracket):
-        lo, hi = bracket
-        mid = 0.5 * (lo + hi)
-        stable = radius(mid) < 1
-        return jnp.where(stable, mid, lo), jnp.where(stable, hi, mid)
-
-    lo, hi = jax.lax.fori_loop(0, 60, bisect, (hs[first - 1], hs[first]))
-    return 0.5 * (lo + hi)
+    return _first_unstable_interval(
+        lambda h: spectral_radius(sampled_transition(a, b, h)),
+        h_max=3.0,
+        grid=300,
+        iterations=60,
+        dtype=a.dtype,
+    )
 
 
 def disagreement_growth(traj: Trajectory, h: float, periods: int = 50) -> float:
