@@ -99,6 +99,27 @@ def test_residual_vibration_sweep_against_quadrature_and_shapers():
     assert abs(unshaped_like[0] - 1) < 1e-3  # a very slow mode sees an unshaped step
 
 
+def test_smoother_residual_vibration_at_its_removable_singularities():
+    """z = 0 in V = e^{-2 zeta w T} u0 |e^{zT} - 1|^2 / |z|^2 (a rigid mode against an undamped
+    design; a critically damped mode at w = a) is the limit u0 T^2 e^{-2 zeta w T}, and
+    continuous with its neighbours (the direct form gave 0/0 = NaN there, and lost 8 digits
+    to cancellation next to it), with a finite gradient."""
+    rigid = ZeroVibrationSmoother(1.0, 0.0)
+    np.testing.assert_allclose(float(rigid.residual_vibration(0.0, 0.0)), 1.0, rtol=1e-15)
+    critical = ZeroVibrationSmoother(1.0, 0.5)
+    a, period, u0 = (float(x) for x in (critical.decay, critical.period, critical.amplitude))
+    limit = u0 * period**2 * np.exp(-2 * a * period)
+    at = float(critical.residual_vibration(a, 1.0))
+    np.testing.assert_allclose(at, limit, rtol=1e-14)
+    # next to it, against the closed form in exact arithmetic: |e^{zT} - 1| / |z| for real z
+    for w in (a * (1 + 1e-9), a * (1 - 1e-6)):
+        zt = (w - a) * period
+        exact = u0 * period**2 * (np.expm1(zt) / zt) ** 2 * np.exp(-2 * w * period)
+        np.testing.assert_allclose(float(critical.residual_vibration(w, 1.0)), exact, rtol=1e-14)
+    slope = jax.grad(lambda w: rigid.residual_vibration(w, 0.0))(0.0)
+    assert np.isfinite(float(slope))
+
+
 def _mode_response(shaper, frequency, damping, t_end, dt=2e-3):
     """x'' + 2 z w x' + w^2 x = w^2 S(t): residual amplitude |x - 1| + |x'|/w after t_end."""
 

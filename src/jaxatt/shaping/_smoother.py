@@ -15,7 +15,8 @@ $$\int_0^{2T} u(\tau)\,e^{(\zeta\omega + i\omega_d)\tau}\,d\tau = u_0\,\frac{(e^
 
 which vanishes together with its derivative in $z$ at the design mode ($e^{zT} = e^{2\pi i}$):
 conditions (37)-(40) of the paper. The residual vibration is
-$V = e^{-2\zeta\omega T}\,u_0|e^{zT} - 1|^2/|z|^2$.
+$V = e^{-2\zeta\omega T}\,u_0|e^{zT} - 1|^2/|z|^2$ ($u_0T^2e^{-2\zeta\omega T}$ in the limit
+$z = 0$: a rigid mode against an undamped design, or $\zeta = 1$ at $\omega = a$).
 
 The step response $S(t) = \int_0^t u$ is, with $h(x) = (1 - e^{-x}(1 + x))/x^2$
 ($h(0) = 1/2$, evaluated by its series near 0),
@@ -23,6 +24,8 @@ The step response $S(t) = \int_0^t u$ is, with $h(x) = (1 - e^{-x}(1 + x))/x^2$
 $$S(t) = u_0t^2h(at)\ (0 \le t \le T),\qquad
 S(t) = 1 - u_0e^{-2aT}r^2h(-ar),\ r = 2T - t\ (T \le t \le 2T).$$
 """
+
+import math
 
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
@@ -32,7 +35,7 @@ from ..numerics import clip, minimum
 from ._base import AbstractShaper, check_evaluation_mode, check_mode, damped_period
 
 
-_SERIES = tuple((-1) ** n * (n - 1) / float(__import__("math").factorial(n)) for n in range(2, 13))
+_SERIES = tuple((-1) ** n * (n - 1) / float(math.factorial(n)) for n in range(2, 13))
 """Coefficients of $h(x) = \\sum_{n\\ge2}(-1)^n(n - 1)x^{n-2}/n!$."""
 _SERIES_RADIUS = 0.1
 
@@ -47,6 +50,22 @@ def _h(x: Array) -> Array:
     xl = jnp.where(small, 1.0, x)
     direct = (-jnp.expm1(-xl) - xl * jnp.exp(-xl)) / xl**2
     return jnp.where(small, series, direct)
+
+
+_EXPM1_SERIES = tuple(1 / float(math.factorial(n + 1)) for n in range(13))
+"""Coefficients of $(e^w - 1)/w = \\sum_{n\\ge0} w^n/(n + 1)!$."""
+
+
+def _expm1_ratio(w: Array) -> Array:
+    r"""$(e^w - 1)/w$ for complex $w$, 1 at $w = 0$ (its series for $|w| < 0.1$, error
+    < 1e-16; the direct form loses digits to cancellation there)."""
+    small = jnp.abs(w) < _SERIES_RADIUS
+    ws = jnp.where(small, w, 0.0)
+    series = jnp.zeros_like(w)
+    for coefficient in reversed(_EXPM1_SERIES):
+        series = series * ws + coefficient
+    wl = jnp.where(small, 1.0, w)
+    return jnp.where(small, series, (jnp.exp(wl) - 1) / wl)
 
 
 def _g(x: Array) -> Array:
@@ -120,5 +139,8 @@ class ZeroVibrationSmoother(AbstractShaper):
         period = self.period
         damped = frequency * jnp.sqrt(1 - damping**2)
         z = (damping * frequency - self.decay) + 1j * damped
-        transform = self.amplitude * (jnp.exp(z * period) - 1) ** 2 / z**2
+        # u0 (e^{zT} - 1)^2 / z^2, written with (e^w - 1)/w so that z = 0 (a rigid mode
+        # against an undamped design, or a critically damped mode at omega = a) gives its
+        # limit u0 T^2 instead of 0/0.
+        transform = self.amplitude * (period * _expm1_ratio(z * period)) ** 2
         return jnp.exp(-2 * damping * frequency * period) * jnp.abs(transform)
