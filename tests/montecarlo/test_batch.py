@@ -15,6 +15,7 @@ import jaxatt
 from jaxatt import montecarlo as mc
 from jaxatt.metrics import (
     Absolute,
+    AbstractMetric,
     Chattering,
     ConvergenceTime,
     Effort,
@@ -36,6 +37,7 @@ from jaxatt.simulation import (
     Euler,
     Performance,
     Status,
+    Trajectory,
     samples_at_once,
 )
 
@@ -308,6 +310,40 @@ def test_summary_statistics_on_a_hand_made_result():
         result.summary("overshoot")
     with pytest.raises(ValueError, match="quantiles"):
         result.summary(quantiles=(1.5,))
+
+
+def test_a_failed_sample_never_reports_a_plausible_flag_or_count():
+    # Regression (audit): a metric with boolean or integer values kept them for a failed sample
+    # (NaN cast to a boolean is True: "the constraint was respected"; an integer count was
+    # kept by a metric function, and a metric object's integer raised instead).
+    class Respected(AbstractMetric):
+        def __call__(self, traj):
+            return jnp.all(traj.signals["x"] < 1.0)
+
+    class Count(AbstractMetric):
+        def __call__(self, traj):
+            return jnp.sum(traj.signals["x"] > 0.5)
+
+    def stand_in(status):
+        return Trajectory(
+            ts=jnp.arange(3.0),
+            states=None,
+            signals={"x": jnp.zeros(3)},
+            status=jnp.asarray(int(status)),
+            failure_time=jnp.asarray(1.0 if status else jnp.inf),
+            events={},
+        )
+
+    objects = {"respected": Respected(), "count": Count()}
+    function = lambda traj: {"respected": Respected()(traj), "count": Count()(traj)}
+    for metrics in (objects, function):
+        failed = mc.evaluate_metrics(metrics, stand_in(Status.nonfinite_state))
+        assert all(np.isnan(failed[name]) for name in ("respected", "count"))
+        good = mc.evaluate_metrics(metrics, stand_in(Status.successful))
+        assert (float(good["respected"]), float(good["count"])) == (1.0, 0.0)
+    stream = mc.MetricStream({"peak": Peak("x")})
+    flag = jnp.asarray(True)
+    assert np.isnan(stream.values({"peak": flag}, jnp.asarray(False))["peak"])
 
 
 def test_a_margins_worst_case_is_its_smallest_value_and_time_limits_reach_every_time():
