@@ -382,6 +382,27 @@ def test_a_margins_worst_case_is_its_smallest_value_and_time_limits_reach_every_
     assert "50.0 %" in result.table(["settle_time_position"], time_limit=10.0)
 
 
+def test_a_success_rate_short_of_all_never_reads_100_percent():
+    # Regression (audit): the table's '{:.1f} %' showed one unsettled sample in 10000 as a
+    # success rate of '100.0 %' (and one success in 10000 as '0.0 %').
+    n = 10000
+    one_unsettled = jnp.ones(n).at[0].set(jnp.inf)
+    one_settled = jnp.full(n, jnp.inf).at[0].set(1.0)
+    result = mc.MonteCarloResult(
+        metrics={"settling_time": one_unsettled, "other": one_settled},
+        status=jnp.zeros(n, jnp.int32),
+        failure_time=jnp.full(n, jnp.inf),
+    )
+    table = result.table()
+    assert "| 99.99 % |" in table and "| 0.01 % |" in table and "100.0 %" not in table
+    done = mc.MonteCarloResult(
+        metrics={"settling_time": jnp.ones(3)},
+        status=jnp.zeros(3, jnp.int32),
+        failure_time=jnp.full(3, jnp.inf),
+    )
+    assert "| 100.0 % |" in done.table()
+
+
 def test_run_batch_records_which_metrics_are_margins_and_which_are_times():
     loop = mrp_pd_loop(k1=60.0, k2=50.0)
     x0s = MRPState(jnp.full((2, 3), 0.1), jnp.zeros((2, 3)))

@@ -31,6 +31,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
 from .._json import json_safe
+from .._text import percent
 from ..simulation import Status, Trajectory
 
 
@@ -281,7 +282,7 @@ def _markdown(rows: Mapping[str, dict], first: str, quantiles: Sequence[float]) 
     for name, s in rows.items():
         cells = [name, s["count"], s["failed"], s["nonfinite"], s["mean"], s["std"]]
         cells += [s["quantiles"][q] for q in quantiles]
-        cells += [s["worst"], f"{100 * s['success_rate']:.1f} %"]
+        cells += [s["worst"], percent(s["success_rate"])]
         lines.append("| " + " | ".join(_fmt(c) for c in cells) + " |")
     return "\n".join(lines)
 
