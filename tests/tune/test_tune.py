@@ -11,6 +11,7 @@ import pytest
 
 import jaxatt
 from jaxatt import tune
+from jaxatt.metrics import ConvergenceTime, Peak
 from jaxatt.plants import QuaternionState
 from jaxatt.scenarios import chen2022_tuning, chen2022_two_phase_power as chen
 from jaxatt.simulation import ClosedLoop
@@ -344,6 +345,19 @@ def test_aggregates():
         ),
         (lambda: _objective(chattering_window=(np.nan, 1.0)), "`chattering_window` must have"),
         (lambda: _objective(chattering_window=(0.5,)), "`chattering_window` must be a pair"),
+        # Regression (audit): a window between two saves also gave a chattering of 0.
+        (lambda: _objective(chattering_window=(0.995, 1.0)), "holds no save interval"),
+        (
+            lambda: _objective(chattering_window=(0.35, 0.45), save_every=20),
+            "saved every 0.2 s from t0 = 0.0 s",
+        ),
+        # Regression (audit): a metric named in `times` and `limits` was replaced by the limit
+        # (the objective summed a peak as seconds), one named like an aux entry by that entry.
+        (
+            lambda: _metric_objective({"pos": Peak("u")}),
+            "not shared by `times` and `limits` nor one of",
+        ),
+        (lambda: _metric_objective({"status": Peak("u")}), "got 'status'."),
     ],
 )
 def test_bad_objective_arguments_are_refused_with_the_rule(build, needle, no_jaxtyping):
@@ -354,6 +368,20 @@ def test_bad_objective_arguments_are_refused_with_the_rule(build, needle, no_jax
 
 def _objective(**kwargs):
     return tune.SettlingObjective(1.0, 1e-2, 1e-2, signal="position_error", **kwargs)
+
+
+def _metric_objective(limits):
+    times = {"pos": ConvergenceTime("position_error", 1e-2)}
+    return tune.MetricObjective(1.0, 1e-2, times, limits)
+
+
+def test_the_default_chattering_window_holds_a_save_interval():
+    # Regression (audit): saved only at t0 and t1, the default window (the last half) held no
+    # interval, so every sample's chattering was 0; it is then the whole run.
+    chattering = _objective(save_every=100).sample_metrics["chattering"]
+    assert (float(chattering.start), float(chattering.end)) == (0.0, 1.0)
+    chattering = _objective(save_every=50).sample_metrics["chattering"]
+    assert (float(chattering.start), float(chattering.end)) == (0.5, 1.0)
 
 
 def test_a_failed_sample_makes_the_loss_inf_whatever_the_aggregate():
