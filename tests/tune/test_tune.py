@@ -358,6 +358,9 @@ def test_aggregates():
             "not shared by `times` and `limits` nor one of",
         ),
         (lambda: _metric_objective({"status": Peak("u")}), "got 'status'."),
+        # Regression (audit): a penalty on a flag rewarded samples that never settled.
+        (lambda: _objective(penalties=(tune.Penalty("settled", 0.0),)), "on one of"),
+        (lambda: _objective(penalties=(tune.Penalty("successful", 0.5),)), "on one of"),
     ],
 )
 def test_bad_objective_arguments_are_refused_with_the_rule(build, needle, no_jaxtyping):

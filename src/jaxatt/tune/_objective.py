@@ -142,6 +142,11 @@ SAMPLE_METRICS = (
     "status",
 )
 
+PENALIZED_METRICS = tuple(m for m in SAMPLE_METRICS if m not in ("settled", "successful", "status"))
+"""The metrics of `SAMPLE_METRICS` a [`Penalty`][] of a [`SettlingObjective`][] may bound: the
+quantities. `settled` and `successful` are flags (a penalty above a bound below 1 would
+penalise the samples that settle or succeed) and `status` a code."""
+
 
 class Penalty(eqx.Module):
     r"""`weight * aggregate(max(0, metric - bound)^2)` over the batch for a per-sample metric.
@@ -266,10 +271,10 @@ class SettlingObjective(AbstractObjective):
         tolerance = check_positive(where, "tolerance", tolerance)
         self.aggregate = _aggregate(where, aggregate)
         for p in penalties:
-            if not isinstance(p, Penalty) or p.metric not in SAMPLE_METRICS:
+            if not isinstance(p, Penalty) or p.metric not in PENALIZED_METRICS:
                 raise ValueError(
                     f"{where}: `penalties` must be Penalty objects on one of "
-                    f"{SAMPLE_METRICS}, got {p!r}."
+                    f"{PENALIZED_METRICS}, got {p!r}."
                 )
         self.penalties = tuple(penalties)
         if not isinstance(signal, str):
