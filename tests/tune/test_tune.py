@@ -42,6 +42,9 @@ def test_nearest_odd_ratio():
     assert p % 2 == 1 and q % 2 == 1 and abs(p / q - 0.6129) < 2e-3
     with pytest.raises(ValueError, match="`value` must be positive"):
         tune.nearest_odd_ratio(-1.0)
+    # Regression (audit): no denominator was tried, and 1/1 was returned as the nearest.
+    with pytest.raises(ValueError, match="`max_denominator` must be a positive integer"):
+        tune.nearest_odd_ratio(0.6, max_denominator=0)
 
 
 @pytest.mark.parametrize(
