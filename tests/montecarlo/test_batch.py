@@ -296,7 +296,8 @@ def test_summary_statistics_on_a_hand_made_result():
     assert (s["count"], s["failed"], s["nonfinite"], s["finite"]) == (6, 1, 2, 3)
     assert s["mean"] == pytest.approx(7 / 3)
     assert s["std"] == pytest.approx(np.std([1.0, 2.0, 4.0], ddof=1))
-    assert s["quantiles"] == {0.0: 1.0, 0.5: 2.0, 1.0: 4.0}
+    # Quantiles over every sample, the unsettled, NaN and failed ones as never settling.
+    assert s["quantiles"] == {0.0: 1.0, 0.5: math.inf, 1.0: math.inf}
     assert s["worst"] == math.inf and s["worst_index"] == 2
     assert s["success_rate"] == pytest.approx(2 / 6)
     d = result.to_dict()
@@ -380,6 +381,48 @@ def test_a_margins_worst_case_is_its_smallest_value_and_time_limits_reach_every_
     assert limited["margin"]["time_limit"] is None  # not a time
     assert "| settle_time_position | 4 | 1 | 0 |" in result.table(time_limit=10.0)
     assert "50.0 %" in result.table(["settle_time_position"], time_limit=10.0)
+
+
+def test_quantiles_count_unsettled_and_failed_samples_at_the_worst_end():
+    # Regression (audit): quantiles were over the settled samples only, so a batch where 7 of
+    # 10 samples never settled reported a median settling time of 1.5 s (the median of the 3
+    # that did), and a q95 of 1.95 s; a failed margin did not lower a margin's q5.
+    times = jnp.array([1.0, 1.5, 2.0] + [jnp.inf] * 6 + [jnp.nan])
+    margins = jnp.array([0.5, 0.4, 0.3, 0.2, 0.1, 0.6, 0.7, 0.8, 0.9, 1.0])
+    failed = jnp.arange(10) == 9
+    result = mc.MonteCarloResult(
+        metrics={"settling_time": times, "margin": margins},
+        status=jnp.where(failed, int(Status.constraint_violated), 0).astype(jnp.int32),
+        failure_time=jnp.where(failed, 0.5, jnp.inf),
+        smallest_is_worst=("margin",),
+    )
+    s = result.summary(quantiles=(0.0, 0.1, 0.2, 0.25, 0.5, 0.95))["quantiles"]
+    assert (s[0.0], s[0.1], s[0.2]) == (1.0, pytest.approx(1.45), pytest.approx(1.9))
+    assert s[0.25] == s[0.5] == s[0.95] == math.inf  # interpolated towards a sample at inf
+    s = result.summary()
+    assert s["mean"] == pytest.approx(1.5)  # the mean stays the settled samples', labelled so
+    m = result.summary("margin", quantiles=(0.0, 0.05, 0.5, 1.0))["quantiles"]
+    assert m[0.0] == m[0.05] == -math.inf and m[0.5] == pytest.approx(0.45)
+    assert m[1.0] == pytest.approx(0.9)
+    # All finite: NumPy's quantiles exactly. None settled, or one unsettled sample: all inf.
+    settled = mc.MonteCarloResult(
+        metrics={"settling_time": times[:3]},
+        status=jnp.zeros(3, jnp.int32),
+        failure_time=jnp.full(3, jnp.inf),
+    )
+    for q in (0.0, 0.3, 0.5, 0.95, 1.0):
+        expected = float(np.quantile(np.asarray(times[:3]), q))
+        assert settled.summary(quantiles=(q,))["quantiles"][q] == expected
+    for values in (times[3:], times[3:4]):
+        none = mc.MonteCarloResult(
+            metrics={"settling_time": values},
+            status=jnp.zeros(values.size, jnp.int32),
+            failure_time=jnp.full(values.size, jnp.inf),
+        )
+        assert set(none.summary(quantiles=(0.0, 0.5, 1.0))["quantiles"].values()) == {math.inf}
+    assert "| 10 | 1 | 6 | 1.5 | 0.5 | 1.225 | inf | inf | inf | 30.0 % |" in result.table(
+        ["settling_time"]
+    )
 
 
 def test_a_success_rate_short_of_all_never_reads_100_percent():
