@@ -604,6 +604,19 @@ def test_batch_field_checks_every_sample_like_the_owners_constructor():
     assert batched.controller.k1.shape == (2,)
 
 
+def test_a_chattering_window_without_a_save_interval_is_refused_before_compiling():
+    # Regression (audit): a window past the horizon, or between two saves, measured nothing
+    # and reported a chattering of 0 for every sample ("no chattering").
+    loop = mrp_pd_loop()
+    x0s = MRPState(jnp.full((2, 3), 0.1), jnp.zeros((2, 3)))
+    run = ft.partial(mc.monte_carlo, loop, x0s, 0.0, 1.0, dt=1e-2)
+    for window in ((2.0, 3.0), (0.991, 0.999)):
+        with pytest.raises(ValueError, match="'late' holds no interval between two save"):
+            run(metrics={"late": Chattering("u", *window)})
+    with pytest.raises(ValueError, match="saved every 0.5 s"):
+        run(metrics={"late": Chattering("u", 0.2, 0.8)}, save_every=50)
+
+
 def test_monte_carlo_configuration_errors(pd_batch):
     loop, x0s = pd_batch
     run = lambda **kw: mc.monte_carlo(

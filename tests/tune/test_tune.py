@@ -11,7 +11,7 @@ import pytest
 
 import jaxatt
 from jaxatt import tune
-from jaxatt.metrics import ConvergenceTime, Peak
+from jaxatt.metrics import Chattering, ConvergenceTime, Peak
 from jaxatt.plants import QuaternionState
 from jaxatt.scenarios import chen2022_tuning, chen2022_two_phase_power as chen
 from jaxatt.simulation import ClosedLoop
@@ -361,6 +361,10 @@ def test_aggregates():
             "not shared by `times` and `limits` nor one of",
         ),
         (lambda: _metric_objective({"status": Peak("u")}), "got 'status'."),
+        (
+            lambda: _metric_objective({"chat": Chattering("u", 2.0, 3.0)}),
+            "the Chattering metric 'chat' holds no interval",
+        ),
         # Regression (audit): a penalty on a flag rewarded samples that never settled.
         (lambda: _objective(penalties=(tune.Penalty("settled", 0.0),)), "on one of"),
         (lambda: _objective(penalties=(tune.Penalty("successful", 0.5),)), "on one of"),

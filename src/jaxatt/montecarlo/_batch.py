@@ -139,6 +139,17 @@ def _check_metrics(where: str, metrics) -> Metrics:
     return metrics
 
 
+def check_metric_records(where: str, metrics: Metrics, sim: Simulation) -> None:
+    """Each metric object's [`check_record`][jaxatt.metrics.AbstractMetric.check_record] on
+    the save times of `sim` (e.g. a chattering window that holds no save interval), before
+    compiling."""
+    if not isinstance(metrics, Mapping):
+        return
+    saves = np.linspace(sim.t0, sim.t1, sim.n_steps // sim.save_every + 1)
+    for name, metric in metrics.items():
+        metric.check_record(where, str(name), saves)
+
+
 def run_batch(
     closed_loop: AbstractClosedLoop,
     x0s: PyTree[Array],
@@ -623,6 +634,7 @@ def monte_carlo(
     )
     metrics = default_metrics(closed_loop) if metrics is None else metrics
     metrics = _check_metrics(where, metrics)
+    check_metric_records(where, metrics, sim)
     keep_trajectories = check_flag(where, "keep_trajectories", keep_trajectories)
     if batch_size is not None:
         batch_size = _check_positive_int("batch_size", batch_size)

@@ -51,7 +51,7 @@ from ..metrics import (
     SettlingTime,
 )
 from ..metrics._chattering import in_window
-from ..montecarlo import run_batch, streamable
+from ..montecarlo._batch import check_metric_records, run_batch, streamable
 from ..numerics import amax
 from ..simulation import (
     RK4,
@@ -417,6 +417,7 @@ class MetricObjective(AbstractObjective):
                     f"{where}: `penalties` must be Penalty objects on one of the `limits` "
                     f"{sorted(limits)}, got {p!r}."
                 )
+        check_metric_records(where, times | limits, self.simulation)
         self.times = dict(times)
         self.limits = limits
         self.penalties = tuple(penalties)
