@@ -362,6 +362,10 @@ def test_aggregates():
         ),
         (lambda: _metric_objective({"status": Peak("u")}), "got 'status'."),
         (
+            lambda: tune.MetricObjective(1.0, 1e-2, {"peak": Peak("u")}),
+            "`times` must hold time metrics",
+        ),
+        (
             lambda: _metric_objective({"chat": Chattering("u", 2.0, 3.0)}),
             "the Chattering metric 'chat' holds no interval",
         ),

@@ -399,6 +399,14 @@ class MetricObjective(AbstractObjective):
                 )
         if not times:
             raise ValueError(f"{where}: `times` must name at least one time metric.")
+        not_times = sorted(name for name, metric in times.items() if not metric.is_time)
+        if not_times:
+            # A peak or an effort summed as seconds would be an objective in no unit.
+            raise ValueError(
+                f"{where}: `times` must hold time metrics (is_time: ConvergenceTime, "
+                f"SettlingTime, TimeOutside), got {not_times} (bound those through `limits` "
+                "and `penalties`)."
+            )
         # One name, one metric: `limits` would replace a time of the same name (the objective
         # would sum the limit's values as seconds), and the objective's own entries of `aux`
         # would replace a metric named like them.
