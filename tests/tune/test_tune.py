@@ -425,8 +425,18 @@ def test_a_failed_sample_makes_the_loss_inf_whatever_the_aggregate():
     assert settled.shape == (4, 3) and not settled[3].any()
     np.testing.assert_array_equal(settled[:3], np.isfinite(np.asarray(aux["settling_time"]))[:3])
     params = {"kd": tune.Parameter("controller.kd", tune.Positive())}
-    with pytest.raises(tune.NonFiniteLossError, match="at step 1"):
+    with pytest.raises(tune.NonFiniteLossError, match="at step 1") as info:
         tune.tune(loop, params, objective, x0s, steps=3, optimizer=optax.sgd(1e-3), progress=False)
+    assert info.value.failed == (1, 4) and "1 of 4 samples failed" in str(info.value)
+
+
+def test_a_non_finite_loss_without_a_failed_sample_is_not_called_a_failure():
+    # Regression (audit): the error always said "A sample diverged or failed", also when every
+    # sample succeeded and the loss was infinite for another reason (a penalty on the last-exit
+    # settling time of a sample that never settled).
+    error = tune.NonFiniteLossError(2, float("inf"), [], {"k": np.array(1.0)}, (0, 8))
+    assert "No sample failed (all 8 succeeded)" in str(error)
+    assert "diverged or failed" not in str(error)
 
 
 def test_equal_tuning_problems_are_one_static_argument():
