@@ -347,6 +347,17 @@ def test_a_failed_sample_never_reports_a_plausible_flag_or_count():
     assert np.isnan(stream.values({"peak": flag}, jnp.asarray(False))["peak"])
 
 
+def test_a_boolean_time_limit_is_refused(no_jaxtyping):
+    # Regression (audit): time_limit=True was a limit of 1 s.
+    result = mc.MonteCarloResult(
+        metrics={"settling_time": jnp.ones(2)},
+        status=jnp.zeros(2, jnp.int32),
+        failure_time=jnp.full(2, jnp.inf),
+    )
+    with pytest.raises(ValueError, match="`time_limit` must be a number"):
+        result.summary(time_limit=True)
+
+
 def test_a_margins_worst_case_is_its_smallest_value_and_time_limits_reach_every_time():
     # Regression (review): "worst" was the largest value for every metric, so the summary of a
     # MinimumMargin reported the safest run as the worst; and to_dict/table applied

@@ -159,7 +159,11 @@ class MonteCarloResult(eqx.Module):
         """
         quantiles = _check_quantiles(quantiles)
         if time_limit is not None:
-            if not isinstance(time_limit, (int, float)) or math.isnan(time_limit):
+            if (
+                isinstance(time_limit, bool)  # True would be a limit of 1 s
+                or not isinstance(time_limit, (int, float))
+                or math.isnan(time_limit)
+            ):
                 raise ValueError(
                     f"MonteCarloResult.summary: `time_limit` must be a number, got {time_limit!r}."
                 )
