@@ -105,3 +105,14 @@ def test_unknown_scenario_is_an_error(capsys):
 def test_bad_command_line_exits_with_usage():
     with pytest.raises(SystemExit):
         cli.main(["frobnicate"])
+
+
+def test_a_settled_fraction_short_of_all_never_prints_as_100_percent():
+    # Regression (audit): '{:.1f} %' printed 9999 of 10000 settled as '100.0 % settled'.
+    stats = {"mean_settling_time": 2.5, "settled_fraction": 0.9999, "failed": 1}
+    assert cli._settling(stats) == "2.500 s, 99.99 % settled, 1 failed"
+    stats = {"mean_settling_time": None, "settled_fraction": 1e-4, "failed": 0}
+    assert cli._settling(stats) == "no mean, 0.01 % settled"
+    assert cli._settling({"mean_settling_time": 1.0, "settled_fraction": 1.0}) == (
+        "1.000 s, 100.0 % settled"
+    )

@@ -92,8 +92,10 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 def _settling(stats: dict) -> str:
     """`"2.794 s, 100.0 % settled"`; the settled fraction always, so that a lower mean over
     fewer settled samples cannot read as an improvement."""
+    from ._text import percent
+
     mean = stats["mean_settling_time"]
-    settled = f"{100 * stats['settled_fraction']:.1f} % settled"
+    settled = f"{percent(stats['settled_fraction'])} settled"
     failed = f", {stats['failed']} failed" if stats.get("failed") else ""
     return ("no mean, " if mean is None else f"{mean:.3f} s, ") + settled + failed
 

@@ -15,6 +15,7 @@ import jaxatt
 from jaxatt import montecarlo as mc
 from jaxatt.metrics import (
     Absolute,
+    AbstractMetric,
     Chattering,
     ConvergenceTime,
     Effort,
@@ -36,6 +37,7 @@ from jaxatt.simulation import (
     Euler,
     Performance,
     Status,
+    Trajectory,
     samples_at_once,
 )
 
@@ -294,7 +296,8 @@ def test_summary_statistics_on_a_hand_made_result():
     assert (s["count"], s["failed"], s["nonfinite"], s["finite"]) == (6, 1, 2, 3)
     assert s["mean"] == pytest.approx(7 / 3)
     assert s["std"] == pytest.approx(np.std([1.0, 2.0, 4.0], ddof=1))
-    assert s["quantiles"] == {0.0: 1.0, 0.5: 2.0, 1.0: 4.0}
+    # Quantiles over every sample, the unsettled, NaN and failed ones as never settling.
+    assert s["quantiles"] == {0.0: 1.0, 0.5: math.inf, 1.0: math.inf}
     assert s["worst"] == math.inf and s["worst_index"] == 2
     assert s["success_rate"] == pytest.approx(2 / 6)
     d = result.to_dict()
@@ -308,6 +311,51 @@ def test_summary_statistics_on_a_hand_made_result():
         result.summary("overshoot")
     with pytest.raises(ValueError, match="quantiles"):
         result.summary(quantiles=(1.5,))
+
+
+def test_a_failed_sample_never_reports_a_plausible_flag_or_count():
+    # Regression (audit): a metric with boolean or integer values kept them for a failed sample
+    # (NaN cast to a boolean is True: "the constraint was respected"; an integer count was
+    # kept by a metric function, and a metric object's integer raised instead).
+    class Respected(AbstractMetric):
+        def __call__(self, traj):
+            return jnp.all(traj.signals["x"] < 1.0)
+
+    class Count(AbstractMetric):
+        def __call__(self, traj):
+            return jnp.sum(traj.signals["x"] > 0.5)
+
+    def stand_in(status):
+        return Trajectory(
+            ts=jnp.arange(3.0),
+            states=None,
+            signals={"x": jnp.zeros(3)},
+            status=jnp.asarray(int(status)),
+            failure_time=jnp.asarray(1.0 if status else jnp.inf),
+            events={},
+        )
+
+    objects = {"respected": Respected(), "count": Count()}
+    function = lambda traj: {"respected": Respected()(traj), "count": Count()(traj)}
+    for metrics in (objects, function):
+        failed = mc.evaluate_metrics(metrics, stand_in(Status.nonfinite_state))
+        assert all(np.isnan(failed[name]) for name in ("respected", "count"))
+        good = mc.evaluate_metrics(metrics, stand_in(Status.successful))
+        assert (float(good["respected"]), float(good["count"])) == (1.0, 0.0)
+    stream = mc.MetricStream({"peak": Peak("x")})
+    flag = jnp.asarray(True)
+    assert np.isnan(stream.values({"peak": flag}, jnp.asarray(False))["peak"])
+
+
+def test_a_boolean_time_limit_is_refused(no_jaxtyping):
+    # Regression (audit): time_limit=True was a limit of 1 s.
+    result = mc.MonteCarloResult(
+        metrics={"settling_time": jnp.ones(2)},
+        status=jnp.zeros(2, jnp.int32),
+        failure_time=jnp.full(2, jnp.inf),
+    )
+    with pytest.raises(ValueError, match="`time_limit` must be a number"):
+        result.summary(time_limit=True)
 
 
 def test_a_margins_worst_case_is_its_smallest_value_and_time_limits_reach_every_time():
@@ -344,6 +392,69 @@ def test_a_margins_worst_case_is_its_smallest_value_and_time_limits_reach_every_
     assert limited["margin"]["time_limit"] is None  # not a time
     assert "| settle_time_position | 4 | 1 | 0 |" in result.table(time_limit=10.0)
     assert "50.0 %" in result.table(["settle_time_position"], time_limit=10.0)
+
+
+def test_quantiles_count_unsettled_and_failed_samples_at_the_worst_end():
+    # Regression (audit): quantiles were over the settled samples only, so a batch where 7 of
+    # 10 samples never settled reported a median settling time of 1.5 s (the median of the 3
+    # that did), and a q95 of 1.95 s; a failed margin did not lower a margin's q5.
+    times = jnp.array([1.0, 1.5, 2.0] + [jnp.inf] * 6 + [jnp.nan])
+    margins = jnp.array([0.5, 0.4, 0.3, 0.2, 0.1, 0.6, 0.7, 0.8, 0.9, 1.0])
+    failed = jnp.arange(10) == 9
+    result = mc.MonteCarloResult(
+        metrics={"settling_time": times, "margin": margins},
+        status=jnp.where(failed, int(Status.constraint_violated), 0).astype(jnp.int32),
+        failure_time=jnp.where(failed, 0.5, jnp.inf),
+        smallest_is_worst=("margin",),
+    )
+    s = result.summary(quantiles=(0.0, 0.1, 0.2, 0.25, 0.5, 0.95))["quantiles"]
+    assert (s[0.0], s[0.1], s[0.2]) == (1.0, pytest.approx(1.45), pytest.approx(1.9))
+    assert s[0.25] == s[0.5] == s[0.95] == math.inf  # interpolated towards a sample at inf
+    s = result.summary()
+    assert s["mean"] == pytest.approx(1.5)  # the mean stays the settled samples', labelled so
+    m = result.summary("margin", quantiles=(0.0, 0.05, 0.5, 1.0))["quantiles"]
+    assert m[0.0] == m[0.05] == -math.inf and m[0.5] == pytest.approx(0.45)
+    assert m[1.0] == pytest.approx(0.9)
+    # All finite: NumPy's quantiles exactly. None settled, or one unsettled sample: all inf.
+    settled = mc.MonteCarloResult(
+        metrics={"settling_time": times[:3]},
+        status=jnp.zeros(3, jnp.int32),
+        failure_time=jnp.full(3, jnp.inf),
+    )
+    for q in (0.0, 0.3, 0.5, 0.95, 1.0):
+        expected = float(np.quantile(np.asarray(times[:3]), q))
+        assert settled.summary(quantiles=(q,))["quantiles"][q] == expected
+    for values in (times[3:], times[3:4]):
+        none = mc.MonteCarloResult(
+            metrics={"settling_time": values},
+            status=jnp.zeros(values.size, jnp.int32),
+            failure_time=jnp.full(values.size, jnp.inf),
+        )
+        assert set(none.summary(quantiles=(0.0, 0.5, 1.0))["quantiles"].values()) == {math.inf}
+    assert "| 10 | 1 | 6 | 1.5 | 0.5 | 1.225 | inf | inf | inf | 30.0 % |" in result.table(
+        ["settling_time"]
+    )
+
+
+def test_a_success_rate_short_of_all_never_reads_100_percent():
+    # Regression (audit): the table's '{:.1f} %' showed one unsettled sample in 10000 as a
+    # success rate of '100.0 %' (and one success in 10000 as '0.0 %').
+    n = 10000
+    one_unsettled = jnp.ones(n).at[0].set(jnp.inf)
+    one_settled = jnp.full(n, jnp.inf).at[0].set(1.0)
+    result = mc.MonteCarloResult(
+        metrics={"settling_time": one_unsettled, "other": one_settled},
+        status=jnp.zeros(n, jnp.int32),
+        failure_time=jnp.full(n, jnp.inf),
+    )
+    table = result.table()
+    assert "| 99.99 % |" in table and "| 0.01 % |" in table and "100.0 %" not in table
+    done = mc.MonteCarloResult(
+        metrics={"settling_time": jnp.ones(3)},
+        status=jnp.zeros(3, jnp.int32),
+        failure_time=jnp.full(3, jnp.inf),
+    )
+    assert "| 100.0 % |" in done.table()
 
 
 def test_run_batch_records_which_metrics_are_margins_and_which_are_times():
@@ -502,6 +613,19 @@ def test_batch_field_checks_every_sample_like_the_owners_constructor():
         mc.batch_field(loop, lambda m: m.plant.body.inertia_perturbation, bad)
     batched, _ = mc.batch_field(loop, "controller.k1", jnp.array([60.0, 70.0]))
     assert batched.controller.k1.shape == (2,)
+
+
+def test_a_chattering_window_without_a_save_interval_is_refused_before_compiling():
+    # Regression (audit): a window past the horizon, or between two saves, measured nothing
+    # and reported a chattering of 0 for every sample ("no chattering").
+    loop = mrp_pd_loop()
+    x0s = MRPState(jnp.full((2, 3), 0.1), jnp.zeros((2, 3)))
+    run = ft.partial(mc.monte_carlo, loop, x0s, 0.0, 1.0, dt=1e-2)
+    for window in ((2.0, 3.0), (0.991, 0.999)):
+        with pytest.raises(ValueError, match="'late' holds no interval between two save"):
+            run(metrics={"late": Chattering("u", *window)})
+    with pytest.raises(ValueError, match="saved every 0.5 s"):
+        run(metrics={"late": Chattering("u", 0.2, 0.8)}, save_every=50)
 
 
 def test_monte_carlo_configuration_errors(pd_batch):

@@ -275,6 +275,14 @@ def test_jitted_sampler_draws_the_same_numbers():
             ),
             "exponent",
         ),
+        # Regression (audit): documented > 0, a radius of 0 gave every draw the identity.
+        (lambda: mc.mrps_in_ball(jr.key(0), 3, 0.0), "max_norm"),
+        (
+            lambda: mc.barrier_states(
+                jr.key(0), 3, max_sigma=0.0, rate_limit=0.1, exponent=1.5, max_ratio=0.9
+            ),
+            "max_sigma",
+        ),
     ],
 )
 def test_bad_arguments_raise_value_error_naming_them(call, name):
@@ -291,3 +299,15 @@ def test_wrong_types_are_rejected():
         mc.sinusoid_dispersion(jr.key(0), 3, jnp.ones(3), amplitude_scale=0.1, phase_spread=0.1)
     with pytest.raises((ValueError, TypeError), match="max_rate"):
         mc.rates_in_box(jr.key(0), 3, jnp.ones(2))
+
+
+def test_a_barrier_ratio_must_be_one_number(no_jaxtyping):
+    # Regression (audit): a ratio per axis broadcast against the draws and scaled each axis by
+    # its own ratio, a law other than the documented one, with no error.
+    ratios = jnp.array([0.5, 0.5, 0.9])
+    with pytest.raises(ValueError, match="`max_ratio` must be a scalar"):
+        mc.rates_with_barrier_ratio(jr.key(0), 3, rate_limit=0.1, exponent=1.5, max_ratio=ratios)
+    with pytest.raises(ValueError, match="`max_ratio` must be a scalar"):
+        mc.barrier_states(
+            jr.key(0), 3, max_sigma=0.5, rate_limit=0.1, exponent=1.5, max_ratio=ratios
+        )

@@ -11,6 +11,7 @@ import pytest
 
 import jaxatt
 from jaxatt import tune
+from jaxatt.metrics import Chattering, ConvergenceTime, Peak
 from jaxatt.plants import QuaternionState
 from jaxatt.scenarios import chen2022_tuning, chen2022_two_phase_power as chen
 from jaxatt.simulation import ClosedLoop
@@ -41,6 +42,9 @@ def test_nearest_odd_ratio():
     assert p % 2 == 1 and q % 2 == 1 and abs(p / q - 0.6129) < 2e-3
     with pytest.raises(ValueError, match="`value` must be positive"):
         tune.nearest_odd_ratio(-1.0)
+    # Regression (audit): no denominator was tried, and 1/1 was returned as the nearest.
+    with pytest.raises(ValueError, match="`max_denominator` must be a positive integer"):
+        tune.nearest_odd_ratio(0.6, max_denominator=0)
 
 
 @pytest.mark.parametrize(
@@ -344,6 +348,30 @@ def test_aggregates():
         ),
         (lambda: _objective(chattering_window=(np.nan, 1.0)), "`chattering_window` must have"),
         (lambda: _objective(chattering_window=(0.5,)), "`chattering_window` must be a pair"),
+        # Regression (audit): a window between two saves also gave a chattering of 0.
+        (lambda: _objective(chattering_window=(0.995, 1.0)), "holds no save interval"),
+        (
+            lambda: _objective(chattering_window=(0.35, 0.45), save_every=20),
+            "saved every 0.2 s from t0 = 0.0 s",
+        ),
+        # Regression (audit): a metric named in `times` and `limits` was replaced by the limit
+        # (the objective summed a peak as seconds), one named like an aux entry by that entry.
+        (
+            lambda: _metric_objective({"pos": Peak("u")}),
+            "not shared by `times` and `limits` nor one of",
+        ),
+        (lambda: _metric_objective({"status": Peak("u")}), "got 'status'."),
+        (
+            lambda: tune.MetricObjective(1.0, 1e-2, {"peak": Peak("u")}),
+            "`times` must hold time metrics",
+        ),
+        (
+            lambda: _metric_objective({"chat": Chattering("u", 2.0, 3.0)}),
+            "the Chattering metric 'chat' holds no interval",
+        ),
+        # Regression (audit): a penalty on a flag rewarded samples that never settled.
+        (lambda: _objective(penalties=(tune.Penalty("settled", 0.0),)), "on one of"),
+        (lambda: _objective(penalties=(tune.Penalty("successful", 0.5),)), "on one of"),
     ],
 )
 def test_bad_objective_arguments_are_refused_with_the_rule(build, needle, no_jaxtyping):
@@ -354,6 +382,20 @@ def test_bad_objective_arguments_are_refused_with_the_rule(build, needle, no_jax
 
 def _objective(**kwargs):
     return tune.SettlingObjective(1.0, 1e-2, 1e-2, signal="position_error", **kwargs)
+
+
+def _metric_objective(limits):
+    times = {"pos": ConvergenceTime("position_error", 1e-2)}
+    return tune.MetricObjective(1.0, 1e-2, times, limits)
+
+
+def test_the_default_chattering_window_holds_a_save_interval():
+    # Regression (audit): saved only at t0 and t1, the default window (the last half) held no
+    # interval, so every sample's chattering was 0; it is then the whole run.
+    chattering = _objective(save_every=100).sample_metrics["chattering"]
+    assert (float(chattering.start), float(chattering.end)) == (0.0, 1.0)
+    chattering = _objective(save_every=50).sample_metrics["chattering"]
+    assert (float(chattering.start), float(chattering.end)) == (0.5, 1.0)
 
 
 def test_a_failed_sample_makes_the_loss_inf_whatever_the_aggregate():
@@ -383,8 +425,18 @@ def test_a_failed_sample_makes_the_loss_inf_whatever_the_aggregate():
     assert settled.shape == (4, 3) and not settled[3].any()
     np.testing.assert_array_equal(settled[:3], np.isfinite(np.asarray(aux["settling_time"]))[:3])
     params = {"kd": tune.Parameter("controller.kd", tune.Positive())}
-    with pytest.raises(tune.NonFiniteLossError, match="at step 1"):
+    with pytest.raises(tune.NonFiniteLossError, match="at step 1") as info:
         tune.tune(loop, params, objective, x0s, steps=3, optimizer=optax.sgd(1e-3), progress=False)
+    assert info.value.failed == (1, 4) and "1 of 4 samples failed" in str(info.value)
+
+
+def test_a_non_finite_loss_without_a_failed_sample_is_not_called_a_failure():
+    # Regression (audit): the error always said "A sample diverged or failed", also when every
+    # sample succeeded and the loss was infinite for another reason (a penalty on the last-exit
+    # settling time of a sample that never settled).
+    error = tune.NonFiniteLossError(2, float("inf"), [], {"k": np.array(1.0)}, (0, 8))
+    assert "No sample failed (all 8 succeeded)" in str(error)
+    assert "diverged or failed" not in str(error)
 
 
 def test_equal_tuning_problems_are_one_static_argument():

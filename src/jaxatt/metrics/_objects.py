@@ -156,6 +156,11 @@ class AbstractMetric(eqx.Module):
     def __call__(self, traj) -> Array:
         """The metric of one (unbatched) trajectory."""
 
+    def check_record(self, where: str, name: str, ts) -> None:
+        """Raise a `ValueError` if the metric cannot measure a record saved at the times `ts`
+        [s] (a NumPy array, known before compiling); the batch runners' entry points call it.
+        By default every record will do."""
+
     def stream_init(self, t: Array, signals: dict[str, Array], t_last: Array) -> PyTree:
         """The running state after the first sample `signals` at time `t` (one trajectory);
         `t_last` is the time of the last sample that will be streamed."""
@@ -517,6 +522,19 @@ class Chattering(AbstractMetric):
     def __call__(self, traj) -> Array:
         u = _signal(traj, self.signal)
         return chattering(traj.ts, u.reshape(u.shape[0], -1), self.start, self.end)
+
+    def check_record(self, where, name, ts) -> None:
+        """The window must hold at least one interval between two save times: else the value
+        is 0 whatever the control does (a window past the horizon, or between two saves)."""
+        ts = jnp.asarray(ts, dtype=jnp.result_type(float))
+        if not bool(jnp.any(in_window(ts[:-1], ts[1:], self.start, self.end))):
+            raise ValueError(
+                f"{where}: the window [{float(self.start)}, {float(self.end)}] s of the "
+                f"Chattering metric {name!r} holds no interval between two save times of the "
+                f"run ({float(ts[0])} to {float(ts[-1])} s, saved every "
+                f"{float(ts[1] - ts[0]):g} s), so it would be 0 whatever the control; widen "
+                "it or save more often."
+            )
 
     def stream_init(self, t, signals, t_last):
         u = _sample(signals, self.signal).reshape(-1)

@@ -65,29 +65,33 @@ def default_metrics(closed_loop: AbstractClosedLoop, *, tolerance: float = 1e-2)
     return metrics
 
 
+def _failed_as(value: Array, ok: Array, failure_value: float) -> Array:
+    """`value` where the sample succeeded, `failure_value` where it failed. A boolean or
+    integer value becomes floating first: NaN cast to a boolean is True and to an integer
+    undefined, so a failed sample would report a plausible flag or count."""
+    value = jnp.asarray(value)
+    if not jnp.issubdtype(value.dtype, jnp.inexact):
+        value = value.astype(jnp.result_type(float))
+    return jnp.where(ok, value, jnp.asarray(failure_value, value.dtype))
+
+
 def evaluate_metrics(metrics: Metrics, traj: Trajectory) -> dict[str, Array]:
     """Per-sample metric values; a failed sample gets each metric's `failure_value` (`inf`
-    for times, NaN otherwise; NaN for every value of a metric function)."""
+    for times, NaN otherwise; NaN for every value of a metric function). Boolean and integer
+    values are returned as floats, so that a failed sample can hold NaN."""
     ok = traj.successful
     if isinstance(metrics, Mapping):
-        out = {}
-        for name, metric in metrics.items():
-            value = jnp.asarray(metric(traj))
-            out[str(name)] = jnp.where(ok, value, jnp.asarray(metric.failure_value, value.dtype))
-        return out
+        return {
+            str(name): _failed_as(metric(traj), ok, metric.failure_value)
+            for name, metric in metrics.items()
+        }
     values = metrics(traj)
     if not isinstance(values, Mapping):
         raise ValueError(
             "monte_carlo: `metrics(traj)` must return a dict name -> array, got "
             f"{type(values).__name__}."
         )
-    out = {}
-    for name, value in values.items():
-        value = jnp.asarray(value)
-        if jnp.issubdtype(value.dtype, jnp.inexact):
-            value = jnp.where(ok, value, jnp.nan)
-        out[str(name)] = value
-    return out
+    return {str(name): _failed_as(value, ok, float("nan")) for name, value in values.items()}
 
 
 class MetricStream(AbstractStream):
@@ -104,11 +108,10 @@ class MetricStream(AbstractStream):
 
     def values(self, state, ok: Array) -> dict[str, Array]:
         """Per-sample values; a failed sample gets each metric's `failure_value`."""
-        out = {}
-        for name, metric in self.metrics.items():
-            value = jnp.asarray(metric.stream_value(state[name]))
-            out[name] = jnp.where(ok, value, jnp.asarray(metric.failure_value, value.dtype))
-        return out
+        return {
+            name: _failed_as(metric.stream_value(state[name]), ok, metric.failure_value)
+            for name, metric in self.metrics.items()
+        }
 
 
 def streamable(metrics: Metrics) -> bool:
@@ -134,6 +137,17 @@ def _check_metrics(where: str, metrics) -> Metrics:
             f"got {metrics!r}."
         )
     return metrics
+
+
+def check_metric_records(where: str, metrics: Metrics, sim: Simulation) -> None:
+    """Each metric object's [`check_record`][jaxatt.metrics.AbstractMetric.check_record] on
+    the save times of `sim` (e.g. a chattering window that holds no save interval), before
+    compiling."""
+    if not isinstance(metrics, Mapping):
+        return
+    saves = np.linspace(sim.t0, sim.t1, sim.n_steps // sim.save_every + 1)
+    for name, metric in metrics.items():
+        metric.check_record(where, str(name), saves)
 
 
 def run_batch(
@@ -620,6 +634,7 @@ def monte_carlo(
     )
     metrics = default_metrics(closed_loop) if metrics is None else metrics
     metrics = _check_metrics(where, metrics)
+    check_metric_records(where, metrics, sim)
     keep_trajectories = check_flag(where, "keep_trajectories", keep_trajectories)
     if batch_size is not None:
         batch_size = _check_positive_int("batch_size", batch_size)

@@ -408,7 +408,7 @@ def mrps_in_ball(key: PRNGKeyArray, n: int, max_norm: RealScalarLike) -> Float[A
     """
     where = "mrps_in_ball"
     n = _check_count(where, n)
-    max_norm = _check_bound(where, "max_norm", max_norm, ((),))
+    max_norm = _check_bound(where, "max_norm", max_norm, ((),), positive=True)
     return _mrps_in_ball(key, n, max_norm)
 
 
@@ -422,6 +422,17 @@ def _ball(k_dir, k_radius, n: int, max_norm: Array) -> Array:
     direction = jr.normal(k_dir, (n, 3), dtype=max_norm.dtype)
     direction = direction / jnp.linalg.norm(direction, axis=1, keepdims=True)
     return direction * max_norm * jr.uniform(k_radius, (n, 1), dtype=max_norm.dtype) ** (1 / 3)
+
+
+def _check_ratio(where: str, max_ratio: RealScalarLike) -> Array:
+    """`max_ratio`, a scalar in (0, 1] (an array of ratios broadcast against the draws' axes
+    and scaled each axis by its own ratio: another law than the documented one)."""
+    max_ratio = check(
+        where, "max_ratio", max_ratio, lambda xp, x: (x > 0) & (x <= 1), "must lie in (0, 1]"
+    )
+    if max_ratio.ndim != 0:
+        raise ValueError(f"{where}: `max_ratio` must be a scalar, got shape {max_ratio.shape}.")
+    return max_ratio
 
 
 def rates_with_barrier_ratio(
@@ -450,9 +461,7 @@ def rates_with_barrier_ratio(
     n = _check_count(where, n)
     rate_limit = _check_bound(where, "rate_limit", rate_limit, ((),), positive=True)
     exponent = _check_bound(where, "exponent", exponent, ((),), positive=True)
-    max_ratio = check(
-        where, "max_ratio", max_ratio, lambda xp, x: (x > 0) & (x <= 1), "must lie in (0, 1]"
-    )
+    max_ratio = _check_ratio(where, max_ratio)
     k_w, k_r = jr.split(key)
     return _barrier_rates(k_w, k_r, n, rate_limit, exponent, max_ratio)
 
@@ -475,8 +484,8 @@ def barrier_states(
     max_ratio: RealScalarLike,
 ) -> MRPState:
     r"""`n` rigid-body states inside a rate barrier: MRPs uniform in the ball
-    $\|\sigma\| <$ `max_sigma` ([`mrps_in_ball`][]'s law) and rates with a barrier ratio uniform
-    in $[0,$ `max_ratio`$)$ ([`rates_with_barrier_ratio`][]'s law).
+    $\|\sigma\| <$ `max_sigma` ([`mrps_in_ball`][]'s law, `max_sigma` $> 0$) and rates with a
+    barrier ratio uniform in $[0,$ `max_ratio`$)$ ([`rates_with_barrier_ratio`][]'s law).
 
     The four draws use the four keys of `jr.split(key, 4)` (direction, radius, rate
     direction, ratio). The batch of Yu et al. (2022)'s rate-bound Monte Carlo.
@@ -485,12 +494,10 @@ def barrier_states(
     """
     where = "barrier_states"
     n = _check_count(where, n)
-    max_sigma = _check_bound(where, "max_sigma", max_sigma, ((),))
+    max_sigma = _check_bound(where, "max_sigma", max_sigma, ((),), positive=True)
     rate_limit = _check_bound(where, "rate_limit", rate_limit, ((),), positive=True)
     exponent = _check_bound(where, "exponent", exponent, ((),), positive=True)
-    max_ratio = check(
-        where, "max_ratio", max_ratio, lambda xp, x: (x > 0) & (x <= 1), "must lie in (0, 1]"
-    )
+    max_ratio = _check_ratio(where, max_ratio)
     k_dir, k_radius, k_w, k_r = jr.split(key, 4)
     sigma = _jit_ball(k_dir, k_radius, n, max_sigma)
     return MRPState(sigma, _barrier_rates(k_w, k_r, n, rate_limit, exponent, max_ratio))

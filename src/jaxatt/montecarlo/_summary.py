@@ -7,9 +7,12 @@ computation). Conventions, for every metric:
   non-finite state, an invalid plant, or a controller's constraint violation); its metric
   values are the metrics' failure values (`inf` for times, NaN otherwise), it is counted in
   `failed` and never enters the statistics;
-- statistics (mean, std, min, max, quantiles) are over the **successful samples whose metric
-  is finite**; a settling time of `inf` (not settled within the horizon) is excluded from them
+- statistics (mean, std, min, max) are over the **successful samples whose metric is
+  finite**; a settling time of `inf` (not settled within the horizon) is excluded from them
   and counted in `nonfinite`;
+- **quantiles** are over every sample, a failed or non-finite one counting as the worst
+  possible value (as in the worst case): the median settling time of a batch where most
+  samples did not settle is `inf`, never the median of the few that did;
 - the **worst case** is the largest value (settling times, torques, efforts) or, for a metric
   whose smallest value is its worst (a margin: [`jaxatt.performance.MinimumMargin`][], whose
   `worst` is `"smallest"`), the smallest; failed and non-finite samples count as the worst
@@ -31,6 +34,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
 from .._json import json_safe
+from .._text import percent
 from ..simulation import Status, Trajectory
 
 
@@ -144,8 +148,9 @@ class MonteCarloResult(eqx.Module):
         **Returns:** a dict: `metric`, `count` (samples), `failed` (unsuccessful samples),
         `status` (count per outcome), `nonfinite` (successful samples whose metric is
         inf/NaN, e.g. not settled), `finite`, `mean`, `std` (sample standard deviation,
-        `ddof=1`), `min`, `max`, `quantiles` ({probability: value}), `worst` (failed and
-        non-finite count as the worst possible value, inf or -inf), `worst_index`,
+        `ddof=1`), `min`, `max` (these four over the finite values), `quantiles`
+        ({probability: value}, over every sample), `worst` (in both, failed and non-finite
+        samples count as the worst possible value, inf or -inf), `worst_index`,
         `worst_is` (`"largest"` or `"smallest"`), `success_rate`, `time_limit`. Statistics of
         an empty selection are NaN.
 
@@ -154,7 +159,11 @@ class MonteCarloResult(eqx.Module):
         """
         quantiles = _check_quantiles(quantiles)
         if time_limit is not None:
-            if not isinstance(time_limit, (int, float)) or math.isnan(time_limit):
+            if (
+                isinstance(time_limit, bool)  # True would be a limit of 1 s
+                or not isinstance(time_limit, (int, float))
+                or math.isnan(time_limit)
+            ):
                 raise ValueError(
                     f"MonteCarloResult.summary: `time_limit` must be a number, got {time_limit!r}."
                 )
@@ -191,10 +200,7 @@ class MonteCarloResult(eqx.Module):
             "std": stat(lambda v: np.std(v, ddof=1), minimum=2),
             "min": stat(np.min),
             "max": stat(np.max),
-            "quantiles": {
-                q: (float(np.quantile(selected, q)) if selected.size else math.nan)
-                for q in quantiles
-            },
+            "quantiles": {q: _quantile(values, finite, q, worst) for q in quantiles},
             "worst": float(worst_values[worst_index]),
             "worst_index": worst_index,
             "worst_is": worst,
@@ -263,6 +269,24 @@ class MonteCarloResult(eqx.Module):
         return _markdown(rows, "metric", quantiles)
 
 
+def _quantile(values: np.ndarray, finite: np.ndarray, q: float, worst: str) -> float:
+    """The `q`-quantile (NumPy's linear interpolation) of `values` with every entry that is not
+    `finite` (failed or non-finite) at the worst end: `inf` (`-inf` for `worst="smallest"`)
+    wherever the interpolation reaches one. (`np.quantile` itself gives NaN next to an
+    infinite value, even with a weight of 0.)"""
+    n, count = values.size, int(np.sum(finite))
+    position = (n - 1) * q
+    below, above = math.floor(position), math.ceil(position)
+    if worst == "largest" and above >= count:
+        return math.inf
+    if worst == "smallest" and below < n - count:
+        return -math.inf
+    # Both neighbours are finite values: the worst entries, replaced by the finite extreme on
+    # their side, keep their places in the sorted order without entering the interpolation.
+    fill = np.max(values[finite]) if worst == "largest" else np.min(values[finite])
+    return float(np.quantile(np.where(finite, values, fill), q))
+
+
 def _fmt(value) -> str:
     if isinstance(value, float):
         if math.isnan(value):
@@ -281,7 +305,7 @@ def _markdown(rows: Mapping[str, dict], first: str, quantiles: Sequence[float]) 
     for name, s in rows.items():
         cells = [name, s["count"], s["failed"], s["nonfinite"], s["mean"], s["std"]]
         cells += [s["quantiles"][q] for q in quantiles]
-        cells += [s["worst"], f"{100 * s['success_rate']:.1f} %"]
+        cells += [s["worst"], percent(s["success_rate"])]
         lines.append("| " + " | ".join(_fmt(c) for c in cells) + " |")
     return "\n".join(lines)
 

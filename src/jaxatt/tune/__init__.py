@@ -25,6 +25,7 @@ from ._loop import (
     tune as tune,
 )
 from ._objective import (
+    PENALIZED_METRICS as PENALIZED_METRICS,
     SAMPLE_METRICS as SAMPLE_METRICS,
     AbstractAggregate as AbstractAggregate,
     AbstractObjective as AbstractObjective,

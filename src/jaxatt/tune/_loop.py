@@ -27,31 +27,65 @@ class NonFiniteLossError(FloatingPointError):
     - `step`: the step (1-based) whose loss or gradient was not finite;
     - `loss`: that loss;
     - `nonfinite_gradients`: names of the parameters with a non-finite gradient entry;
-    - `gains`: the gains at which it was evaluated (name -> NumPy array).
+    - `gains`: the gains at which it was evaluated (name -> NumPy array);
+    - `failed`: `(failed, samples)`, how many samples of the batch failed at that step, when
+      the objective's aux says (`aux["successful"]`), else `None`.
 
     The checkpoint (if any) holds the state after the last good step; nothing of the failing
     step is saved.
     """
 
-    def __init__(self, step: int, loss: float, nonfinite_gradients: list[str], gains: dict):
+    def __init__(
+        self,
+        step: int,
+        loss: float,
+        nonfinite_gradients: list[str],
+        gains: dict,
+        failed: tuple[int, int] | None = None,
+    ):
         self.step = step
         self.loss = loss
         self.nonfinite_gradients = nonfinite_gradients
         self.gains = gains
+        self.failed = failed
         what = []
         if not math.isfinite(loss):
             what.append(f"the loss is {loss}")
         if nonfinite_gradients:
             what.append(f"the gradient of {', '.join(nonfinite_gradients)} is not finite")
         shown = {k: np.round(v, 6).tolist() for k, v in gains.items()}
+        if failed is None:
+            cause = (
+                "A sample diverged or failed (its convergence time is infinite), or the gains "
+                "left the region where the loop is well posed."
+            )
+        elif failed[0]:
+            cause = (
+                f"{failed[0]} of {failed[1]} samples failed (a non-finite state, an invalid "
+                "plant or a violated constraint: aux['status'])."
+            )
+        else:
+            cause = (
+                f"No sample failed (all {failed[1]} succeeded): a metric or penalty of a "
+                "successful sample is not finite (e.g. the last-exit settling time of a "
+                "sample that never settled, in a penalty or in `times`), or the gradient left "
+                "the region where the loop is well posed."
+            )
         super().__init__(
-            f"tune: at step {step}, {' and '.join(what)} (gains {shown}). A sample diverged or "
-            "failed (its convergence time is infinite), or the gains left the region where "
-            "the loop is well posed. Tuning stopped; the checkpoint holds the last good step "
-            f"({step - 1}). Lower the learning rate, bound the gains with tighter transforms, "
-            "shorten dt, or evaluate the batch at these gains (tune.evaluate) to see which "
-            "samples failed (aux['status'])."
+            f"tune: at step {step}, {' and '.join(what)} (gains {shown}). {cause} Tuning "
+            f"stopped; the checkpoint holds the last good step ({step - 1}). Lower the "
+            "learning rate, bound the gains with tighter transforms, shorten dt, or evaluate "
+            "the batch at these gains (tune.evaluate) to see which samples failed "
+            "(aux['status'])."
         )
+
+
+def _failed(aux) -> tuple[int, int] | None:
+    """`(failed, samples)` from an objective's aux, if it says which samples succeeded."""
+    if not isinstance(aux, Mapping) or "successful" not in aux:
+        return None
+    successful = np.asarray(aux["successful"]).astype(bool).reshape(-1)
+    return int(np.sum(~successful)), int(successful.size)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -276,7 +310,11 @@ def tune(
                 write(state)  # the last good step, never the failing one
                 gains_now = constrained(state.unconstrained, parameters)
                 error = NonFiniteLossError(
-                    k + 1, loss_value, bad, {n: np.asarray(v) for n, v in gains_now.items()}
+                    k + 1,
+                    loss_value,
+                    bad,
+                    {n: np.asarray(v) for n, v in gains_now.items()},
+                    _failed(aux),
                 )
                 if on_nonfinite == "raise":
                     raise error

@@ -30,6 +30,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.tree_util as jtu
+import numpy as np
 from jaxtyping import Array, Float, PyTree
 
 from .._validation import (
@@ -49,7 +50,8 @@ from ..metrics import (
     Peak,
     SettlingTime,
 )
-from ..montecarlo import run_batch, streamable
+from ..metrics._chattering import in_window
+from ..montecarlo._batch import check_metric_records, run_batch, streamable
 from ..numerics import amax
 from ..simulation import (
     RK4,
@@ -140,6 +142,11 @@ SAMPLE_METRICS = (
     "status",
 )
 
+PENALIZED_METRICS = tuple(m for m in SAMPLE_METRICS if m not in ("settled", "successful", "status"))
+"""The metrics of `SAMPLE_METRICS` a [`Penalty`][] of a [`SettlingObjective`][] may bound: the
+quantities. `settled` and `successful` are flags (a penalty above a bound below 1 would
+penalise the samples that settle or succeed) and `status` a code."""
+
 
 class Penalty(eqx.Module):
     r"""`weight * aggregate(max(0, metric - bound)^2)` over the batch for a per-sample metric.
@@ -203,8 +210,10 @@ class SettlingObjective(AbstractObjective):
     - `norm`: how the signal is reduced to a magnitude (default
       [`jaxatt.metrics.Euclidean`][]`()`).
     - `chattering_window`: `(start, end)` [s] of the chattering metric (default the last half
-      of the horizon): numbers with `start < end`, overlapping `[t0, t1]` (a window outside
-      the run would make the chattering 0, and its penalty silently nothing).
+      of the horizon, or the whole run when that half holds no save interval): numbers with
+      `start < end` that hold at least one save interval of `[t0, t1]` (a window outside the
+      run, or between two saves, would make the chattering 0, and its penalty silently
+      nothing).
     - `save_every`, `sampling`, `solver`, `performance`, `t0`: as
       [`jaxatt.montecarlo.monte_carlo`][] (the crossing is interpolated between saves).
     - `checkpoint`, `checkpoints`: how reverse mode stores the loop, as
@@ -262,10 +271,10 @@ class SettlingObjective(AbstractObjective):
         tolerance = check_positive(where, "tolerance", tolerance)
         self.aggregate = _aggregate(where, aggregate)
         for p in penalties:
-            if not isinstance(p, Penalty) or p.metric not in SAMPLE_METRICS:
+            if not isinstance(p, Penalty) or p.metric not in PENALIZED_METRICS:
                 raise ValueError(
                     f"{where}: `penalties` must be Penalty objects on one of "
-                    f"{SAMPLE_METRICS}, got {p!r}."
+                    f"{PENALIZED_METRICS}, got {p!r}."
                 )
         self.penalties = tuple(penalties)
         if not isinstance(signal, str):
@@ -274,7 +283,7 @@ class SettlingObjective(AbstractObjective):
                 f"'attitude_error_vector'), got {signal!r}."
             )
         norm = Euclidean() if norm is None else norm
-        start, end = _chattering_window(where, chattering_window, t0, t1)
+        start, end = _chattering_window(where, chattering_window, self.simulation)
         # Built once, here, from checked values: inside the compiled loss they are plain
         # pytrees (no run-time checks, no host callbacks).
         self.sample_metrics = {
@@ -312,6 +321,10 @@ class SettlingObjective(AbstractObjective):
     def __call__(self, closed_loop: AbstractClosedLoop, x0s: PyTree):
         metrics = self.batch_metrics(closed_loop, x0s)
         return _loss(self.aggregate, self.penalties, metrics), metrics
+
+
+_RESERVED = ("objective_time", "successful", "status", "failure_time")
+"""The entries a [`MetricObjective`][] adds to its `aux` (no metric may be named like them)."""
 
 
 class MetricObjective(AbstractObjective):
@@ -386,12 +399,33 @@ class MetricObjective(AbstractObjective):
                 )
         if not times:
             raise ValueError(f"{where}: `times` must name at least one time metric.")
+        not_times = sorted(name for name, metric in times.items() if not metric.is_time)
+        if not_times:
+            # A peak or an effort summed as seconds would be an objective in no unit.
+            raise ValueError(
+                f"{where}: `times` must hold time metrics (is_time: ConvergenceTime, "
+                f"SettlingTime, TimeOutside), got {not_times} (bound those through `limits` "
+                "and `penalties`)."
+            )
+        # One name, one metric: `limits` would replace a time of the same name (the objective
+        # would sum the limit's values as seconds), and the objective's own entries of `aux`
+        # would replace a metric named like them.
+        shared = sorted(set(times) & set(limits))
+        reserved = sorted((set(times) | set(limits)) & set(_RESERVED))
+        if shared or reserved:
+            raise ValueError(
+                f"{where}: every metric needs its own name, not shared by `times` and `limits` "
+                f"nor one of {_RESERVED}; got "
+                + ", ".join(f"{name!r}" for name in shared + reserved)
+                + "."
+            )
         for p in penalties:
             if not isinstance(p, Penalty) or p.metric not in limits:
                 raise ValueError(
                     f"{where}: `penalties` must be Penalty objects on one of the `limits` "
                     f"{sorted(limits)}, got {p!r}."
                 )
+        check_metric_records(where, times | limits, self.simulation)
         self.times = dict(times)
         self.limits = limits
         self.penalties = tuple(penalties)
@@ -415,11 +449,22 @@ class MetricObjective(AbstractObjective):
 
 
 def _chattering_window(
-    where: str, window: tuple[float, float] | None, t0: float, t1: float
+    where: str, window: tuple[float, float] | None, simulation: Simulation
 ) -> tuple[float, float]:
-    """The checked `(start, end)` of the chattering metric; the last half of the run if None."""
+    """The checked `(start, end)` of the chattering metric: it must hold at least one save
+    interval of the run (else the chattering is 0 whatever the control does, and its penalty
+    silently nothing). By default the last half of the run, or the whole run when that half
+    holds no save interval (a run saved only at `t0` and `t1`)."""
+    t0, t1 = simulation.t0, simulation.t1
+    saves = np.linspace(t0, t1, simulation.n_steps // simulation.save_every + 1)
+
+    def holds_an_interval(start, end) -> bool:
+        bounds = (saves[:-1], saves[1:], start, end)
+        return bool(jnp.any(in_window(*(jnp.asarray(b, dtype=float) for b in bounds))))
+
     if window is None:
-        return 0.5 * (t0 + t1), t1
+        start = 0.5 * (t0 + t1)
+        return (start if holds_an_interval(start, t1) else t0), t1
     try:
         start, end = (float(v) for v in window)
     except (TypeError, ValueError):
@@ -431,6 +476,12 @@ def _chattering_window(
         raise ValueError(
             f"{where}: `chattering_window` must have start < end and overlap the run "
             f"[t0, t1] = [{t0}, {t1}] s, got {window!r}."
+        )
+    if not holds_an_interval(start, end):
+        raise ValueError(
+            f"{where}: `chattering_window` {window!r} holds no save interval of the run (saved "
+            f"every {saves[1] - saves[0]:g} s from t0 = {t0} s), so the chattering would be 0 "
+            "whatever the control; widen it or save more often."
         )
     return start, end
 
