@@ -35,6 +35,27 @@ def test_transforms_round_trip_and_stay_in_range(transform, values):
     assert transform.contains(transform.forward(u)) or isinstance(transform, tune.Identity)
 
 
+@pytest.mark.parametrize(
+    "transform",
+    [tune.Positive(), tune.GreaterThan(1.0), tune.Interval(0.0, 1.0), tune.Interval(0.5, 2.0)],
+)
+@pytest.mark.parametrize("dtype", [jnp.float32, jnp.float64])
+def test_saturated_transforms_stay_strictly_inside(transform, dtype):
+    """An optimizer that drives u far out: 1 + exp(-40) and sigmoid(40) round to the bound
+    itself (a gain its law refuses, or reads as another law); the value stays strictly inside
+    the open range, in either precision, and is unchanged where nothing saturates."""
+    u = jnp.asarray([-800.0, -200.0, -40.0, 40.0, 80.0], dtype)  # exp(80) is finite in float32
+    values = transform.forward(u)
+    assert values.dtype == dtype and transform.contains(values)
+    inner = jnp.linspace(-5.0, 5.0, 11, dtype=dtype)
+    low = transform.low
+    if isinstance(transform, tune.Interval):
+        plain = low + (transform.high - low) * jax.nn.sigmoid(inner)
+    else:
+        plain = low + jnp.exp(inner)
+    np.testing.assert_array_equal(transform.forward(inner), plain)
+
+
 def test_nearest_odd_ratio():
     assert tune.nearest_odd_ratio(31 / 11) == (31, 11)
     assert tune.nearest_odd_ratio(5 / 9) == (5, 9)

@@ -32,6 +32,25 @@ def _check_bound(where: str, name: str, value) -> float:
     return bound
 
 
+def _strictly_inside(value: Array, low: float, high: float) -> Array:
+    """`value` clipped to the open range `(low, high)`: a saturated exponential or sigmoid
+    rounds to the bound itself (`1 + exp(-40)` is 1.0 in float64, `sigmoid(40)` is 1.0), a
+    gain its law may refuse or read as another law; the nearest representable value inside is
+    kept instead (in `value`'s dtype; gradient 0 there, as the saturated map's nearly is)."""
+    value = jnp.maximum(jnp.asarray(value), _inward(low, high, jnp.asarray(value).dtype))
+    if np.isinf(high):  # an overflowed exponential stays inf: no gain, a failure to see
+        return value
+    return jnp.minimum(value, _inward(high, low, value.dtype))
+
+
+def _inward(bound: float, toward: float, dtype) -> Array:
+    """The representable number next to `bound` in the direction of `toward`; next to 0, the
+    smallest normal number (XLA:CPU flushes subnormals to zero)."""
+    if bound == 0:
+        return jnp.asarray(np.copysign(np.finfo(dtype).tiny, toward), dtype)
+    return jnp.nextafter(jnp.asarray(bound, dtype), jnp.asarray(toward, dtype))
+
+
 class AbstractTransform(eqx.Module):
     """A bijection from the reals onto a gain's valid range."""
 
@@ -81,7 +100,7 @@ class GreaterThan(AbstractTransform):
         self.low = _check_bound("GreaterThan", "low", low)
 
     def forward(self, u):
-        return self.low + jnp.exp(u)
+        return _strictly_inside(self.low + jnp.exp(u), self.low, np.inf)
 
     def inverse(self, value):
         return jnp.log(value - self.low)
@@ -114,7 +133,8 @@ class Interval(AbstractTransform):
         self.low, self.high = low, high
 
     def forward(self, u):
-        return self.low + (self.high - self.low) * jax.nn.sigmoid(u)
+        value = self.low + (self.high - self.low) * jax.nn.sigmoid(u)
+        return _strictly_inside(value, self.low, self.high)
 
     def inverse(self, value):
         p = (value - self.low) / (self.high - self.low)
