@@ -222,6 +222,10 @@ def test_tuning_reports_never_call_fewer_settled_samples_an_improvement(
     }
     sentence = ct.reduction_sentence(report)
     assert "settled fraction fell from 100.0 % to 50.0 % (1 failed)" in sentence
+    # one sample in 10000 fewer: not "from 100.0 % to 100.0 %"
+    nearly = {**before, "settled_fraction": 0.9999, "failed": 1}
+    report["validation"]["after"] = nearly
+    assert "fell from 100.0 % to 99.99 % (1 failed)" in ct.reduction_sentence(report)
     assert "reduced" not in sentence
     assert ct.format_statistic("p95_settling_time", None) == "not settled"
     # The CLI's line after `jaxatt demo`.

@@ -24,6 +24,7 @@ import numpy as np
 import optax
 
 from .. import tune as tuning
+from .._text import percent
 from ..montecarlo import MonteCarloResult, quaternion_states
 from ..plants import QuaternionState
 from ..simulation import ClosedLoop
@@ -306,13 +307,13 @@ def reduction_sentence(report: dict) -> str:
     if reduction is not None:
         return (
             f"Mean held-out settling time reduced by {100 * reduction:.1f} % "
-            f"(settled {100 * before['settled_fraction']:.1f} % -> "
-            f"{100 * after['settled_fraction']:.1f} %)."
+            f"(settled {percent(before['settled_fraction'])} -> "
+            f"{percent(after['settled_fraction'])})."
         )
     if after["settled_fraction"] < before["settled_fraction"]:
         return (
             "Not an improvement to report: the settled fraction fell from "
-            f"{100 * before['settled_fraction']:.1f} % to {100 * after['settled_fraction']:.1f} % "
+            f"{percent(before['settled_fraction'])} to {percent(after['settled_fraction'])} "
             f"({after['failed']} failed), so a lower mean over the settled samples would "
             "flatter the tuned gains."
         )
