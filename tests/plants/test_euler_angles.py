@@ -1,5 +1,6 @@
 """RigidBodyEuler and the 3-2-1 Euler-angle rotations: checked against the quaternion plant."""
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -143,9 +144,21 @@ def test_gimbal_lock_is_reported_never_nan():
             lambda: RigidBodyEuler(jnp.eye(3), gimbal_margin=0.0),
             "RigidBodyEuler: `gimbal_margin` must lie in (0.0, 1.0)",
         ),
+        (  # a (2,) margin broadcast against cos(theta): two answers to "valid"
+            lambda: RigidBodyEuler(jnp.eye(3), gimbal_margin=jnp.array([0.1, 0.2])),
+            "RigidBodyEuler: `gimbal_margin` must be a scalar",
+        ),
     ],
 )
-def test_bad_euler_plant_input_raises(build, needle):
+def test_bad_euler_plant_input_raises(build, needle, no_jaxtyping):
     with pytest.raises(ValueError) as info:
         build()
     assert needle in str(info.value)
+
+
+def test_literal_plant_builds_under_vmap():
+    """The diagonal-inertia check of `literal=True` converted a traced inertia to NumPy (a
+    TracerArrayConversionError); a traced inertia is now left unchecked, like every check."""
+    inertias = jnp.stack([jnp.asarray(DIAGONAL), 2 * jnp.asarray(DIAGONAL)])
+    plants = eqx.filter_vmap(lambda j: RigidBodyEuler(j, literal=True))(inertias)
+    assert plants.body.inertia.shape == (2, 3, 3)
