@@ -8,14 +8,19 @@ import numpy as np
 import pytest
 
 from jaxatt.controllers import (
+    MRPPD,
     AdaptiveTerminalSixDof,
     FractionalSlidingMode,
+    ProximitySlidingMode,
     SafeApproachSlidingMode,
     TimeVaryingSlidingMode,
+    TwoLayerConsensus,
 )
-from jaxatt.plants import RelativeOrbit
+from jaxatt.networks import SampledLink, SampleSchedule
+from jaxatt.plants import AgentsState, RelativeOrbit, SingleIntegratorAgents
 from jaxatt.reaching import Exponential, Saturation
-from jaxatt.scenarios import wu2018, yue2018
+from jaxatt.scenarios import duan2024, flyaround, wu2018, yue2018
+from jaxatt.simulation import ClosedLoop, simulate
 
 
 def safe_approach(**changes):
@@ -26,6 +31,28 @@ def safe_approach(**changes):
 
 def six_dof(**changes):
     return AdaptiveTerminalSixDof(**{**yue2018.PRINTED_GAINS, **changes})
+
+
+def proximity(**changes):
+    loop = flyaround.build()
+    parts = dict(
+        model=loop.controller.model,
+        translation=loop.controller.translation,
+        attitude=loop.controller.attitude,
+    )
+    return ProximitySlidingMode(**{**parts, **changes})
+
+
+def consensus(network=None, link=None):
+    network = duan2024.network() if network is None else network
+    link = SampledLink(SampleSchedule.periodic(0.26, 0.01)) if link is None else link
+    return TwoLayerConsensus(network, link)
+
+
+def mismatched_consensus_run():
+    """A 3 x 4 network on a plant of 3 groups of 5 agents."""
+    loop = ClosedLoop(SingleIntegratorAgents(3, 5), consensus())
+    return simulate(loop, AgentsState(jnp.zeros((3, 5))), 0.0, 0.02, dt=0.01)
 
 
 @pytest.mark.parametrize(
@@ -59,6 +86,17 @@ def six_dof(**changes):
             ),
             "FractionalSlidingMode: `alpha` must be a scalar",
         ),
+        # no type checks: the swapped arguments failed inside the first trace
+        (
+            lambda: consensus(network=SampledLink(SampleSchedule.periodic(0.26, 0.01))),
+            "TwoLayerConsensus: `network` must be a jaxatt.networks.TwoLayerNetwork",
+        ),
+        (lambda: consensus(link="periodic"), "TwoLayerConsensus: `link` must be"),
+        (mismatched_consensus_run, "TwoLayerConsensus: the network couples 3 groups of 4"),
+        (lambda: proximity(model=RelativeOrbit(7e6)), "ProximitySlidingMode: `model` must be"),
+        (lambda: proximity(translation=None), "ProximitySlidingMode: `translation` must be"),
+        # an MRP law read `.sigma` of the chaser's QuaternionState inside the trace
+        (lambda: proximity(attitude=MRPPD(1.0, 1.0)), "ProximitySlidingMode: `attitude`"),
     ],
 )
 def test_bad_controller_arguments_are_refused(build, match, no_jaxtyping):
