@@ -228,6 +228,16 @@ def test_energy_is_conserved_without_damping_and_dissipated_with_it():
             lambda: SloshPendulum(10.0, 0.228, [1.689] * 3, [0.8, 0, 0], [0.05] * 3),
             "SloshPendulum: `gravity` must be a scalar",
         ),
+        # bool("False") is True: the string read the inertia as the total one
+        (
+            lambda: FlexibleSloshSpacecraft(
+                PAPER_J,
+                paper_slosh(),
+                ModalAppendage([1.0], [0.01], [[0, 0, 1.0]]),
+                inertia_is_total="False",
+            ),
+            "FlexibleSloshSpacecraft: `inertia_is_total` must be True or False",
+        ),
     ],
 )
 def test_beam_and_slosh_refuse_bad_parameters(build, match, no_jaxtyping):

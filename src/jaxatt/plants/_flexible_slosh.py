@@ -56,6 +56,7 @@ from .._custom_types import Mat33, RealScalarLike, Vec3
 from .._validation import (
     check,
     check_batched_shape,
+    check_flag,
     check_nonnegative,
     check_positive,
     check_positive_int,
@@ -301,7 +302,7 @@ class FlexibleSloshSpacecraft(AbstractPlant):
             )
         self.slosh = slosh
         self.appendage = appendage
-        if inertia_is_total:
+        if check_flag(where, "inertia_is_total", inertia_is_total):
             total = check_shape(where, "inertia", inertia, (3, 3))
             effective = total - self._coupling_inertia()
             if not is_traced(effective):
