@@ -3,30 +3,35 @@ tested with their scenarios): each is refused eagerly with a `ValueError` naming
 the argument, before anything compiles."""
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
-import numpy as np
 import pytest
 
+from jaxatt._validation import host_checked
 from jaxatt.controllers import (
     MRPPD,
     AdaptiveTerminalSixDof,
     FractionalSlidingMode,
     ProximitySlidingMode,
     SafeApproachSlidingMode,
+    SlidingModeTracking,
     TimeVaryingSlidingMode,
+    TranslationalSlidingMode,
     TwoLayerConsensus,
 )
 from jaxatt.networks import SampledLink, SampleSchedule
-from jaxatt.plants import AgentsState, RelativeOrbit, SingleIntegratorAgents
+from jaxatt.plants import AgentsState, Proximity, RelativeOrbit, SingleIntegratorAgents
 from jaxatt.reaching import Exponential, Saturation
-from jaxatt.scenarios import duan2024, flyaround, wu2018, yue2018
+from jaxatt.scenarios import duan2024, wu2018, yue2018
 from jaxatt.simulation import ClosedLoop, simulate
+from jaxatt.sliding import LinearSurface, PDSurface
 
 
 def safe_approach(**changes):
     limits = dict(force_limit=wu2018.FORCE_LIMIT, torque_limit=wu2018.TORQUE_LIMIT)
     settings = {**wu2018.GAINS, **limits, **changes}
-    return SafeApproachSlidingMode(wu2018.plant(j2=False), wu2018.safety(), **settings)
+    plant = Proximity(RelativeOrbit(7e6), 100.0, jnp.eye(3))
+    return SafeApproachSlidingMode(plant, wu2018.safety(), **settings)
 
 
 def six_dof(**changes):
@@ -34,11 +39,11 @@ def six_dof(**changes):
 
 
 def proximity(**changes):
-    loop = flyaround.build()
+    law = Exponential(0.05, 1e-3, Saturation(1e-3))
     parts = dict(
-        model=loop.controller.model,
-        translation=loop.controller.translation,
-        attitude=loop.controller.attitude,
+        model=Proximity(RelativeOrbit(7e6), 100.0, jnp.eye(3)),
+        translation=TranslationalSlidingMode(RelativeOrbit(7e6), PDSurface(0.05), law),
+        attitude=SlidingModeTracking(LinearSurface(0.1), law, jnp.eye(3)),
     )
     return ProximitySlidingMode(**{**parts, **changes})
 
@@ -105,6 +110,15 @@ def test_bad_controller_arguments_are_refused(build, match, no_jaxtyping):
 
 
 def test_safe_approach_builds_under_vmap():
-    """`float(gamma)` raised a ConcretizationTypeError for a traced gamma (STYLE behaviour 4)."""
-    laws = eqx.filter_vmap(lambda g: safe_approach(gamma=g))(jnp.array([0.5, 0.6]))
-    np.testing.assert_array_equal(laws.gamma, [0.5, 0.6])
+    """`float(gamma)` raised a ConcretizationTypeError for a traced gamma (STYLE behaviour 4).
+    (`eval_shape`: traced as `vmap` would, without running; under `host_checked`, as in a
+    tuning step, so that no `error_if` is attached.)"""
+    plant, safety = Proximity(RelativeOrbit(7e6), 100.0, jnp.eye(3)), wu2018.safety()
+    settings = dict(wu2018.GAINS, force_limit=wu2018.FORCE_LIMIT, torque_limit=wu2018.TORQUE_LIMIT)
+
+    def build(gamma):
+        return SafeApproachSlidingMode(plant, safety, **{**settings, "gamma": gamma})
+
+    with host_checked():  # as in jaxatt's own programs: no run-time check to attach
+        laws = jax.eval_shape(eqx.filter_vmap(build), jax.ShapeDtypeStruct((2,), jnp.float64))
+    assert laws.gamma.shape == (2,)

@@ -245,7 +245,6 @@ def test_beam_and_slosh_refuse_bad_parameters(build, match, no_jaxtyping):
         build()
 
 
-def test_cantilever_modes_accept_numpy_integers(no_jaxtyping):
+def test_cantilever_roots_accept_numpy_integers(no_jaxtyping):
     """(the annotation says int; without the test hook a NumPy integer is an integer)"""
-    modes = cantilever_modes(paper_beam(), np.int64(2), quadrature_order=np.int32(16))
-    assert modes.frequencies.shape == (2,)
+    assert cantilever_roots(np.int64(2)) == cantilever_roots(2)
