@@ -6,6 +6,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from jaxatt._validation import host_checked
 from jaxatt.controllers import OpenLoop
 from jaxatt.plants import (
     Constant,
@@ -161,5 +162,7 @@ def test_literal_plant_builds_under_vmap():
     TracerArrayConversionError); a traced inertia is now left unchecked, like every check.
     (`eval_shape`: traced as `vmap` would, without running.)"""
     inertias = jax.ShapeDtypeStruct((2, 3, 3), jnp.float64)
-    plants = jax.eval_shape(eqx.filter_vmap(lambda j: RigidBodyEuler(j, literal=True)), inertias)
+    with host_checked():  # as in jaxatt's own programs: no run-time check to attach
+        build = eqx.filter_vmap(lambda j: RigidBodyEuler(j, literal=True))
+        plants = jax.eval_shape(build, inertias)
     assert plants.body.inertia.shape == (2, 3, 3)
