@@ -209,6 +209,20 @@ def check_flag(where: str, name: str, value) -> bool:
     return bool(value)
 
 
+def check_positive_int(where: str, name: str, value, minimum: int = 1) -> int:
+    """A static integer at least `minimum` (a count, a size, an index): a Python or NumPy
+    integer, not a bool (`True` would silently read as 1) nor a float (`2.5` would be
+    truncated, `2.0` would fail later as an index)."""
+    rule = "a positive integer" if minimum == 1 else f"an integer >= {minimum}"
+    if (
+        isinstance(value, (bool, np.bool_))
+        or not isinstance(value, numbers.Integral)
+        or value < minimum
+    ):
+        raise ValueError(f"{where}: `{name}` must be {rule}, got {value!r}.")
+    return int(value)
+
+
 def check_positive_scalar(where: str, name: str, value: ArrayLike) -> Array:
     """A positive scalar (a band, a span, a limit): a shape `(3,)` value would broadcast and
     fail deep inside a computation, or silently give one result per entry."""

@@ -208,6 +208,12 @@ def test_gradients_with_respect_to_gains_are_finite(example_run):
             lambda: FeedbackLinearization(-jnp.eye(3), DecoupledPD(1.0, 1.0)),
             "FeedbackLinearization: `inertia` must be a symmetric positive-definite",
         ),
+        (  # a (2,) margin broadcast in the kinematics: a shape error deep in the run
+            lambda: FeedbackLinearization(
+                jnp.eye(3), DecoupledPD(1.0, 1.0), gimbal_margin=jnp.array([0.1, 0.2])
+            ),
+            "FeedbackLinearization: `gimbal_margin` must be a scalar",
+        ),
         (
             lambda: simulate(
                 _loop(DecoupledPD(1.0, 1.0)),
@@ -220,7 +226,7 @@ def test_gradients_with_respect_to_gains_are_finite(example_run):
         ),
     ],
 )
-def test_bad_input_raises(build, needle):
+def test_bad_input_raises(build, needle, no_jaxtyping):
     with pytest.raises(ValueError) as info:
         build()
     assert needle in str(info.value)

@@ -1,10 +1,12 @@
 """RigidBodyEuler and the 3-2-1 Euler-angle rotations: checked against the quaternion plant."""
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from jaxatt._validation import host_checked
 from jaxatt.controllers import OpenLoop
 from jaxatt.plants import (
     Constant,
@@ -143,9 +145,24 @@ def test_gimbal_lock_is_reported_never_nan():
             lambda: RigidBodyEuler(jnp.eye(3), gimbal_margin=0.0),
             "RigidBodyEuler: `gimbal_margin` must lie in (0.0, 1.0)",
         ),
+        (  # a (2,) margin broadcast against cos(theta): two answers to "valid"
+            lambda: RigidBodyEuler(jnp.eye(3), gimbal_margin=jnp.array([0.1, 0.2])),
+            "RigidBodyEuler: `gimbal_margin` must be a scalar",
+        ),
     ],
 )
-def test_bad_euler_plant_input_raises(build, needle):
+def test_bad_euler_plant_input_raises(build, needle, no_jaxtyping):
     with pytest.raises(ValueError) as info:
         build()
     assert needle in str(info.value)
+
+
+def test_literal_plant_builds_under_vmap():
+    """The diagonal-inertia check of `literal=True` converted a traced inertia to NumPy (a
+    TracerArrayConversionError); a traced inertia is now left unchecked, like every check.
+    (`eval_shape`: traced as `vmap` would, without running.)"""
+    inertias = jax.ShapeDtypeStruct((2, 3, 3), jnp.float64)
+    with host_checked():  # as in jaxatt's own programs: no run-time check to attach
+        build = eqx.filter_vmap(lambda j: RigidBodyEuler(j, literal=True))
+        plants = jax.eval_shape(build, inertias)
+    assert plants.body.inertia.shape == (2, 3, 3)

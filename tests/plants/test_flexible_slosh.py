@@ -201,3 +201,50 @@ def test_energy_is_conserved_without_damping_and_dissipated_with_it():
             expected -= eta_dot @ plant.slosh.damping_matrix() @ eta_dot
             expected -= n_dot @ plant.appendage.damping_matrix() @ n_dot
         np.testing.assert_allclose(float(e_dot), float(expected), rtol=1e-9, atol=1e-13)
+
+
+@pytest.mark.parametrize(
+    "build, match",
+    [
+        # a (N,) parameter broadcast through the modal integrals (a cryptic shape error there,
+        # or one modal data set per entry)
+        (
+            lambda: CantileverBeam([7e10, 7e10], 3e-9, 31.5, 3.0),
+            "`youngs_modulus` must be a scalar",
+        ),
+        (lambda: CantileverBeam(7e10, 3e-9, 31.5, 3.0, [0.0, 0.65]), "`root_offset` must be a"),
+        # np.int64 was refused as "not a positive integer, got 2"; True was read as 1 mode
+        (lambda: cantilever_modes(paper_beam(), True), "`n_modes` must be a positive integer"),
+        (lambda: cantilever_modes(paper_beam(), 2, quadrature_order=0), "`quadrature_order`"),
+        # axis=2.0 passed `axis in (0, 1, 2)` and failed as a float index
+        (lambda: ModalAppendage.from_beam(paper_beam(), [0.01], axis=2.0), "`axis` must be"),
+        (lambda: ModalAppendage.from_beam(paper_beam(), [0.01], axis=True), "`axis` must be"),
+        # a (2,) or (3,) mass gave a wrong-shaped A = m I_2 or delta
+        (
+            lambda: SloshPendulum([10.0, 10.0], 0.228, 1.689, [0.8, 0, 0], [0.05] * 3),
+            "SloshPendulum: `mass` must be a scalar",
+        ),
+        (
+            lambda: SloshPendulum(10.0, 0.228, [1.689] * 3, [0.8, 0, 0], [0.05] * 3),
+            "SloshPendulum: `gravity` must be a scalar",
+        ),
+        # bool("False") is True: the string read the inertia as the total one
+        (
+            lambda: FlexibleSloshSpacecraft(
+                PAPER_J,
+                paper_slosh(),
+                ModalAppendage([1.0], [0.01], [[0, 0, 1.0]]),
+                inertia_is_total="False",
+            ),
+            "FlexibleSloshSpacecraft: `inertia_is_total` must be True or False",
+        ),
+    ],
+)
+def test_beam_and_slosh_refuse_bad_parameters(build, match, no_jaxtyping):
+    with pytest.raises(ValueError, match=match):
+        build()
+
+
+def test_cantilever_roots_accept_numpy_integers(no_jaxtyping):
+    """(the annotation says int; without the test hook a NumPy integer is an integer)"""
+    assert cantilever_roots(np.int64(2)) == cantilever_roots(2)

@@ -128,3 +128,23 @@ def test_bad_model_and_state_are_refused():
     )
     with pytest.raises(ValueError, match=r"x0\.position"):
         plant.check_state(bad)
+
+
+@pytest.mark.parametrize(
+    "changes, match",
+    [
+        # a (3,) mass divided the force per axis: a plausible, wrong acceleration
+        (dict(chaser_mass=[M_P] * 3), "`chaser_mass` must be a scalar"),
+        (dict(target_mass=[M_T, M_T]), "`target_mass` must be a scalar"),
+        (dict(mu=[MU_EARTH] * 3), "`mu` must be a scalar"),
+        # a NaN offset made every error NaN from the first step
+        (dict(offset=[np.nan, 5.0, -2.0]), "`offset` must be finite"),
+        (dict(offset=[np.inf, 5.0, -2.0]), "`offset` must be finite"),
+    ],
+)
+def test_model_refuses_bad_parameters(changes, match, no_jaxtyping):
+    args = dict(
+        chaser_mass=M_P, chaser_inertia=J_P, target_mass=M_T, target_inertia=J_T, offset=OFFSET
+    )
+    with pytest.raises(ValueError, match="RelativePoseModel: " + match):
+        RelativePoseModel(**{**args, **changes})

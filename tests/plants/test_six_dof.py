@@ -5,7 +5,15 @@ import numpy as np
 import pytest
 
 from jaxatt.controllers import OpenLoop
-from jaxatt.plants import Constant, Sinusoid, SixDof, SixDofState
+from jaxatt.plants import (
+    Constant,
+    Proximity,
+    RelativeOrbit,
+    RelativeOrbitJ2,
+    Sinusoid,
+    SixDof,
+    SixDofState,
+)
 from jaxatt.references import ConstantPose
 from jaxatt.rotations import quat_normalize, quat_to_dcm
 from jaxatt.simulation import ClosedLoop, simulate
@@ -75,3 +83,17 @@ def test_mass_or_inertia_that_can_become_non_positive_is_refused(kwargs, match):
     args = {"mass": 100.0, **kwargs}
     with pytest.raises(ValueError, match=match):
         SixDof(args.pop("mass"), J, **args)
+
+
+@pytest.mark.parametrize(
+    "build, match",
+    [
+        # a (3,) mass divided the body-frame thrust per axis: a plausible, wrong acceleration
+        (lambda: Proximity(RelativeOrbit(7e6), [100.0] * 3, J), "Proximity: `mass` must be a"),
+        (lambda: Proximity(RelativeOrbit(7e6), 100.0, J, i=[0.1, 0.2]), "Proximity: `i` must be"),
+        (lambda: RelativeOrbitJ2(7e6, raan=[0.1] * 3), "RelativeOrbitJ2: `raan` must be a scalar"),
+    ],
+)
+def test_proximity_and_j2_orbit_refuse_non_scalar_parameters(build, match, no_jaxtyping):
+    with pytest.raises(ValueError, match=match):
+        build()

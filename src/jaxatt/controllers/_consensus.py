@@ -33,7 +33,30 @@ class TwoLayerConsensus(AbstractController):
     link: SampledLink
     measurement_type: ClassVar[type] = AgentsState
 
+    def __init__(self, network: TwoLayerNetwork, link: SampledLink):
+        where = "TwoLayerConsensus"
+        if not isinstance(network, TwoLayerNetwork):
+            raise ValueError(
+                f"{where}: `network` must be a jaxatt.networks.TwoLayerNetwork, got "
+                f"{type(network).__name__}."
+            )
+        if not isinstance(link, SampledLink):
+            raise ValueError(
+                f"{where}: `link` must be a jaxatt.networks.SampledLink, got {type(link).__name__}."
+            )
+        self.network = network
+        self.link = link
+
     def init(self, t0, measurement: AgentsState, reference) -> LinkState:
+        # shapes are static: this check also holds (at trace time) inside a compiled run
+        expected = (self.network.groups, self.network.agents_per_group)
+        shape = tuple(measurement.x.shape)
+        if shape[:2] != expected:
+            raise ValueError(
+                f"TwoLayerConsensus: the network couples {expected[0]} groups of {expected[1]} "
+                f"agents, but the plant's state x has shape {shape}; build the plant as "
+                f"SingleIntegratorAgents({expected[0]}, {expected[1]}, features)."
+            )
         return self.link.init(t0, measurement.x)
 
     def __call__(self, t, measurement: AgentsState, reference, state: LinkState):

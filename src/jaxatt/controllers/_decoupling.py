@@ -29,7 +29,13 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float, PyTree
 
 from .._custom_types import Mat33, RealScalarLike, Vec3
-from .._validation import check_gain_shape, check_in_open_interval, check_positive, check_spd
+from .._validation import (
+    check_gain_shape,
+    check_in_open_interval,
+    check_positive,
+    check_scalar,
+    check_spd,
+)
 from ..numerics import inv3, solve3
 from ..plants import EulerAngleState
 from ..reaching import AbstractReachingLaw
@@ -225,7 +231,9 @@ class FeedbackLinearization(AbstractController):
                 f"DecoupledSlidingMode, ...), got {type(outer).__name__}."
             )
         self.outer = outer
-        self.gimbal_margin = check_in_open_interval(where, "gimbal_margin", gimbal_margin, 0.0, 1.0)
+        self.gimbal_margin = check_in_open_interval(
+            where, "gimbal_margin", check_scalar(where, "gimbal_margin", gimbal_margin), 0.0, 1.0
+        )
 
     def output_errors(
         self, measurement: EulerAngleState, reference: EulerAngleCommand

@@ -4,7 +4,7 @@ from typing import ClassVar
 
 import jax.numpy as jnp
 
-from ..plants import Proximity, ProximityState
+from ..plants import Proximity, ProximityState, QuaternionState
 from ..references import PoseReference
 from ._base import AbstractController
 from ._translational import TranslationalSlidingMode
@@ -27,6 +27,26 @@ class ProximitySlidingMode(AbstractController):
     attitude: AbstractController
     measurement_type: ClassVar[type] = ProximityState
     reference_type: ClassVar[type] = PoseReference
+
+    def __init__(
+        self, model: Proximity, translation: TranslationalSlidingMode, attitude: AbstractController
+    ):
+        where = "ProximitySlidingMode"
+        for name, value, kind, what in (
+            ("model", model, Proximity, "a jaxatt.plants.Proximity"),
+            ("translation", translation, TranslationalSlidingMode, "a TranslationalSlidingMode"),
+            ("attitude", attitude, AbstractController, "an attitude controller"),
+        ):
+            if not isinstance(value, kind):
+                raise ValueError(f"{where}: `{name}` must be {what}, got {type(value).__name__}.")
+        if not issubclass(QuaternionState, attitude.measurement_type):
+            raise ValueError(
+                f"{where}: `attitude` ({type(attitude).__name__}) reads "
+                f"{attitude.measurement_type.__name__} measurements, but it is given the "
+                "chaser's attitude as a QuaternionState; use a quaternion attitude law (e.g. "
+                "SlidingModeTracking, QuaternionPD)."
+            )
+        self.model, self.translation, self.attitude = model, translation, attitude
 
     def init(self, t0, measurement, reference):
         return self.attitude.init(t0, measurement.attitude, reference.attitude)

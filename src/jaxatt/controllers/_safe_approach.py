@@ -57,7 +57,14 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .._validation import check_flag, check_nonnegative, check_positive, check_spd
+from .._validation import (
+    check_flag,
+    check_in_open_interval,
+    check_nonnegative,
+    check_positive_scalar,
+    check_scalar,
+    check_spd,
+)
 from ..numerics import clip, maximum, minimum, safe_norm, sig_pow, solve3
 from ..plants import Proximity, ProximityState
 from ..references import PoseReference
@@ -183,17 +190,21 @@ class SafeApproachSlidingMode(AbstractController):
                 f"{where}: `integral_start` must be 'zero_surface' or 'zero', got "
                 f"{integral_start!r}."
             )
+        if surface not in ("terminal", "integral"):
+            raise ValueError(
+                f"{where}: `surface` must be 'terminal' or 'integral', got {surface!r}."
+            )
         self.model, self.safety, self.avoidance = model, safety, avoidance
         self.surface = surface
         self.velocity_limit = (
             None
             if velocity_limit is None
-            else check_positive(where, "velocity_limit", velocity_limit)
+            else check_positive_scalar(where, "velocity_limit", velocity_limit)
         )
         self.rate_limit = (
-            None if rate_limit is None else check_positive(where, "rate_limit", rate_limit)
+            None if rate_limit is None else check_positive_scalar(where, "rate_limit", rate_limit)
         )
-        self.floor = check_positive(where, "floor", floor)
+        self.floor = check_positive_scalar(where, "floor", floor)
         self.integral_start = integral_start
         self.template_auxiliary = check_flag(where, "template_auxiliary", template_auxiliary)
         for name, value in dict(
@@ -210,12 +221,12 @@ class SafeApproachSlidingMode(AbstractController):
             mu=mu,
             force_limit=force_limit,
             torque_limit=torque_limit,
-            gamma=gamma,
         ).items():
-            setattr(self, name, check_positive(where, name, value))
-        self.k_h = check_nonnegative(where, "k_h", k_h)
-        if not float(gamma) < 1.0:
-            raise ValueError(f"{where}: `gamma` must lie in (0, 1), got gamma={float(gamma)}.")
+            setattr(self, name, check_positive_scalar(where, name, value))
+        self.gamma = check_in_open_interval(
+            where, "gamma", check_scalar(where, "gamma", gamma), 0.0, 1.0
+        )
+        self.k_h = check_nonnegative(where, "k_h", check_scalar(where, "k_h", k_h))
         check_spd(where, "model.body.inertia", model.body.inertia)
 
     # -- the avoidance term -------------------------------------------------------------------

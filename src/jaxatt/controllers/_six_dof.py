@@ -18,6 +18,7 @@ from .._validation import (
     check_in_open_interval,
     check_nonnegative,
     check_positive,
+    check_scalar,
 )
 from ..numerics import safe_norm, sat, sig_pow, sign, spectral_norm
 from ..plants import SixDofState
@@ -127,27 +128,23 @@ class AdaptiveTerminalSixDof(AbstractController):
         self.surface = TerminalSurface(k1, k2, exponent, floor)
         self.k3, self.k4 = gain("k3", k3), gain("k4", k4)
         self.boundary = gain("boundary", boundary)
-        self.zeta0, self.zeta1 = (
-            check_positive(where, "zeta0", zeta0),
-            check_positive(where, "zeta1", zeta1),
-        )
-        self.lambda1 = check_positive(where, "lambda1", lambda1)
-        self.lambda2 = check_positive(where, "lambda2", lambda2)
-        self.p = check_in_open_interval(where, "p", p, 0.0, 1.0)
+
+        def scalar(name, value, check=check_positive):
+            return check(where, name, check_scalar(where, name, value))
+
+        self.zeta0, self.zeta1 = scalar("zeta0", zeta0), scalar("zeta1", zeta1)
+        self.lambda1 = scalar("lambda1", lambda1)
+        self.lambda2 = scalar("lambda2", lambda2)
+        self.p = check_in_open_interval(where, "p", check_scalar(where, "p", p), 0.0, 1.0)
         self.sigma = gain("sigma", sigma)
-        self.eps0, self.eps1 = (
-            check_positive(where, "eps0", eps0),
-            check_positive(where, "eps1", eps1),
-        )
-        self.p0, self.p1 = check_positive(where, "p0", p0), check_positive(where, "p1", p1)
-        self.mass = check_positive(where, "mass", mass)
-        self.force_bound = check_nonnegative(where, "force_bound", force_bound)
+        self.eps0, self.eps1 = scalar("eps0", eps0), scalar("eps1", eps1)
+        self.p0, self.p1 = scalar("p0", p0), scalar("p1", p1)
+        self.mass = scalar("mass", mass)
+        self.force_bound = scalar("force_bound", force_bound, check_nonnegative)
         self.adaptive = check_flag("AdaptiveTerminalSixDof", "adaptive", adaptive)
         self.literal = check_flag("AdaptiveTerminalSixDof", "literal", literal)
         self.attitude_boundary = (
-            None
-            if attitude_boundary is None
-            else check_positive(where, "attitude_boundary", attitude_boundary)
+            None if attitude_boundary is None else scalar("attitude_boundary", attitude_boundary)
         )
 
     # --- errors and surfaces --------------------------------------------------------------

@@ -107,9 +107,21 @@ class TimeVaryingSlidingMode(AbstractController):
         self.alpha_bar = check_positive(where, "alpha_bar", alpha_bar)
         self.k0 = check_positive(where, "k0", k0)
         self.p2_0 = check_positive(where, "p2_0", p2_0)
-        for name in ("max_torque", "kp", "gamma_k", "gamma_c", "gamma_p", "gamma_d"):
+        for name in (
+            "max_torque",
+            "kp",
+            "gamma_k",
+            "gamma_c",
+            "gamma_p",
+            "gamma_d",
+            "alpha_bar",
+            "k0",
+            "p2_0",
+        ):
             if getattr(self, name).shape != ():
-                raise ValueError(f"{where}: `{name}` must be a scalar.")
+                raise ValueError(
+                    f"{where}: `{name}` must be a scalar, got shape {getattr(self, name).shape}."
+                )
 
     def init(self, t0: RealScalarLike, measurement, reference) -> TimeVaryingSlidingModeState:
         del t0, measurement, reference

@@ -17,7 +17,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .._validation import check_in_open_interval, check_positive
+from .._validation import check_in_open_interval, check_positive, check_scalar
 from ..numerics import FractionalMemory, memory_derivative, memory_init, memory_push
 from ..plants import AbstractRelativeOrbit, RelativeOrbitState
 from ..reaching import AbstractReachingLaw
@@ -179,7 +179,7 @@ class FractionalSlidingMode(AbstractController):
     ):
         where = "FractionalSlidingMode"
         _check_parts(where, model, reaching_law)
-        check_in_open_interval(where, "alpha", alpha, 0.0, 1.0)
+        check_in_open_interval(where, "alpha", check_scalar(where, "alpha", alpha), 0.0, 1.0)
         check_positive(where, "slope", slope)
         capacity = memory_samples(where, step, horizon, memory)
         self.model, self.reaching_law = model, reaching_law

@@ -11,7 +11,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .._validation import check_batched_shape, check_tree_finite
+from .._validation import check_batched_shape, check_positive_int, check_tree_finite
 from ..metrics import AbstractMetric, Effort, Peak, SettlingTime
 from ..numerics import amax, amin
 from ._base import AbstractPlant
@@ -38,14 +38,17 @@ class SingleIntegratorAgents(AbstractPlant):
     measurement_type: ClassVar[type] = AgentsState
 
     def __init__(self, groups: int, agents: int, features: tuple[int, ...] = ()):
-        for name, value in (("groups", groups), ("agents", agents)):
-            if int(value) != value or value < 1:
-                raise ValueError(
-                    f"SingleIntegratorAgents: `{name}` must be a positive integer, got {value!r}."
-                )
-        self.groups = int(groups)
-        self.agents = int(agents)
-        self.features = tuple(int(f) for f in features)
+        where = "SingleIntegratorAgents"
+        self.groups = check_positive_int(where, "groups", groups)
+        self.agents = check_positive_int(where, "agents", agents)
+        if not isinstance(features, (tuple, list)):
+            raise ValueError(
+                f"{where}: `features` must be a tuple of positive integers (the shape of one "
+                f"agent's variable, () for scalar agents), got {features!r}."
+            )
+        self.features = tuple(
+            check_positive_int(where, f"features[{i}]", f) for i, f in enumerate(features)
+        )
 
     def vector_field(self, t, state: AgentsState, control: Float[Array, "q p *f"]) -> AgentsState:
         return AgentsState(control)

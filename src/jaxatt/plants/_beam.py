@@ -33,7 +33,12 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._validation import check_nonnegative, check_positive
+from .._validation import (
+    check_nonnegative,
+    check_positive_int,
+    check_positive_scalar,
+    check_scalar,
+)
 
 
 CANTILEVER_ROOTS_REFERENCE = (1.875104068711961, 4.694091132974175, 7.854757438237613)
@@ -47,8 +52,7 @@ def cantilever_roots(n_modes: int) -> tuple[float, ...]:
     Newton's method on $f(x) = \cos x + 1/\cosh x$ (the same roots, better scaled) from
     $x_0 = (2i - 1)\pi/2$, iterated to a relative step below 1e-16.
     """
-    if not isinstance(n_modes, int) or n_modes < 1:
-        raise ValueError(f"cantilever_roots: `n_modes` must be a positive integer, got {n_modes}.")
+    n_modes = check_positive_int("cantilever_roots", "n_modes", n_modes)
     roots = []
     for i in range(1, n_modes + 1):
         x = (2 * i - 1) * np.pi / 2
@@ -100,11 +104,13 @@ class CantileverBeam(eqx.Module):
         root_offset: float | Float[ArrayLike, ""] = 0.0,
     ):
         where = "CantileverBeam"
-        self.youngs_modulus = check_positive(where, "youngs_modulus", youngs_modulus)
-        self.area_moment = check_positive(where, "area_moment", area_moment)
-        self.mass_per_length = check_positive(where, "mass_per_length", mass_per_length)
-        self.length = check_positive(where, "length", length)
-        self.root_offset = check_nonnegative(where, "root_offset", root_offset)
+        self.youngs_modulus = check_positive_scalar(where, "youngs_modulus", youngs_modulus)
+        self.area_moment = check_positive_scalar(where, "area_moment", area_moment)
+        self.mass_per_length = check_positive_scalar(where, "mass_per_length", mass_per_length)
+        self.length = check_positive_scalar(where, "length", length)
+        self.root_offset = check_nonnegative(
+            where, "root_offset", check_scalar(where, "root_offset", root_offset)
+        )
 
     @property
     def bending_stiffness(self) -> Float[Array, ""]:
@@ -191,6 +197,10 @@ def cantilever_modes(
     Integrals by `quadrature_order`-point Gauss-Legendre quadrature over $[0, l_1]$;
     differentiable in every field of `beam`.
     """
+    if not isinstance(beam, CantileverBeam):
+        raise ValueError(f"cantilever_modes: `beam` must be a CantileverBeam, got {beam!r}.")
+    n_modes = check_positive_int("cantilever_modes", "n_modes", n_modes)
+    quadrature_order = check_positive_int("cantilever_modes", "quadrature_order", quadrature_order)
     roots = jnp.asarray(cantilever_roots(n_modes), beam.length.dtype)
     beta = roots / beam.length
     y, w = _gauss_legendre(quadrature_order, beam.length)

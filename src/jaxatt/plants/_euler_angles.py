@@ -49,6 +49,7 @@ from .._validation import (
     check_batched_shape,
     check_flag,
     check_in_open_interval,
+    check_scalar,
     check_tree_finite,
     is_traced,
 )
@@ -101,9 +102,13 @@ class RigidBodyEuler(AbstractPlant):
         self.body = RigidBody(inertia, None, disturbance)
         self.literal = check_flag("RigidBodyEuler", "literal", literal)
         self.gimbal_margin = check_in_open_interval(
-            "RigidBodyEuler", "gimbal_margin", gimbal_margin, 0.0, 1.0
+            "RigidBodyEuler",
+            "gimbal_margin",
+            check_scalar("RigidBodyEuler", "gimbal_margin", gimbal_margin),
+            0.0,
+            1.0,
         )
-        if self.literal:
+        if self.literal and not is_traced(self.body.inertia):  # traced: built under jit/vmap
             inertia = np.asarray(self.body.inertia)
             if np.any(inertia != np.diag(np.diag(inertia))):
                 raise ValueError(

@@ -56,8 +56,11 @@ from .._custom_types import Mat33, RealScalarLike, Vec3
 from .._validation import (
     check,
     check_batched_shape,
+    check_flag,
     check_nonnegative,
     check_positive,
+    check_positive_int,
+    check_positive_scalar,
     check_shape,
     check_spd,
     check_tree_finite,
@@ -109,9 +112,9 @@ class SloshPendulum(eqx.Module):
     def __init__(self, mass, length, gravity, suspension, damping):
         where = "SloshPendulum"
         suspension, damping = _array(suspension), _array(damping)
-        self.mass = check_positive(where, "mass", mass)
-        self.length = check_positive(where, "length", length)
-        self.gravity = check_positive(where, "gravity", gravity)
+        self.mass = check_positive_scalar(where, "mass", mass)
+        self.length = check_positive_scalar(where, "length", length)
+        self.gravity = check_positive_scalar(where, "gravity", gravity)
         self.suspension = check(
             where,
             "suspension",
@@ -210,7 +213,8 @@ class ModalAppendage(eqx.Module):
                 "ModalAppendage.from_beam: `damping` must have shape (N,) with N >= 1, got "
                 f"{describe(damping_arr)}."
             )
-        if axis not in (0, 1, 2):
+        axis = check_positive_int("ModalAppendage.from_beam", "axis", axis, minimum=0)
+        if axis > 2:
             raise ValueError(f"ModalAppendage.from_beam: `axis` must be 0, 1 or 2, got {axis}.")
         modes = cantilever_modes(beam, n_modes)
         coupling = jnp.zeros((n_modes, 3), modes.coupling.dtype).at[:, axis].set(modes.coupling)
@@ -298,7 +302,7 @@ class FlexibleSloshSpacecraft(AbstractPlant):
             )
         self.slosh = slosh
         self.appendage = appendage
-        if inertia_is_total:
+        if check_flag(where, "inertia_is_total", inertia_is_total):
             total = check_shape(where, "inertia", inertia, (3, 3))
             effective = total - self._coupling_inertia()
             if not is_traced(effective):

@@ -20,7 +20,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._validation import check_finite, check_positive
+from .._validation import check_finite, check_positive_scalar, check_scalar
 from ..metrics import AbstractMetric
 from ..numerics import safe_arccos, safe_norm
 from ..orbits._relative_motion import hill_rotation
@@ -73,9 +73,10 @@ class Proximity(AbstractPlant):
             )
         self.orbit = orbit
         self.body = RigidBody(inertia, None, torque_disturbance)
-        self.mass = check_positive("Proximity", "mass", mass)
+        self.mass = check_positive_scalar("Proximity", "mass", mass)
         self.i, self.raan, self.argp = (
-            check_finite("Proximity", n, v) for n, v in (("i", i), ("raan", raan), ("argp", argp))
+            check_finite("Proximity", n, check_scalar("Proximity", n, v))
+            for n, v in (("i", i), ("raan", raan), ("argp", argp))
         )
 
     def hill_rotation(self, theta) -> Float[Array, "3 3"]:

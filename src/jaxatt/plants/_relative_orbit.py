@@ -35,6 +35,7 @@ from .._validation import (
     check_batched_shape,
     check_finite,
     check_positive,
+    check_scalar,
     check_tree_finite,
 )
 from ..metrics import AbstractMetric, Effort, Peak, SettlingTime
@@ -213,7 +214,7 @@ class RelativeOrbitJ2(AbstractRelativeOrbit):
     def __init__(self, a, e=0.0, i=0.0, raan=0.0, argp=0.0, mu=MU_EARTH, disturbance=None):
         self.a, self.e, self.mu = check_target_orbit("RelativeOrbitJ2", a, e, mu)
         self.i, self.raan, self.argp = (
-            check_finite("RelativeOrbitJ2", n, v)
+            check_finite("RelativeOrbitJ2", n, check_scalar("RelativeOrbitJ2", n, v))
             for n, v in (("i", i), ("raan", raan), ("argp", argp))
         )
         self.disturbance = _disturbance("RelativeOrbitJ2", disturbance)

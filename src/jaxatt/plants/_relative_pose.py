@@ -37,7 +37,8 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 from .._custom_types import RealScalarLike, Vec3
 from .._validation import (
     check_batched_shape,
-    check_positive,
+    check_finite,
+    check_positive_scalar,
     check_shape,
     check_spd,
     check_tree_finite,
@@ -172,17 +173,17 @@ class RelativePoseModel(eqx.Module):
         mu: RealScalarLike = MU_EARTH,
     ):
         where = "RelativePoseModel"
-        self.chaser_mass = check_positive(where, "chaser_mass", chaser_mass)
+        self.chaser_mass = check_positive_scalar(where, "chaser_mass", chaser_mass)
         self.chaser_inertia = check_spd(where, "chaser_inertia", chaser_inertia)
-        self.target_mass = check_positive(where, "target_mass", target_mass)
+        self.target_mass = check_positive_scalar(where, "target_mass", target_mass)
         self.target_inertia = check_spd(where, "target_inertia", target_inertia)
-        self.offset = check_shape(where, "offset", offset, (3,))
+        self.offset = check_finite(where, "offset", check_shape(where, "offset", offset, (3,)))
         zero = Constant(jnp.zeros(3))
         self.target_force = zero if target_force is None else target_force
         check_signal_shape(where, "target_force", self.target_force, (3,))
         self.target_torque = zero if target_torque is None else target_torque
         check_signal_shape(where, "target_torque", self.target_torque, (3,))
-        self.mu = check_positive(where, "mu", mu)
+        self.mu = check_positive_scalar(where, "mu", mu)
 
     def without_target_disturbances(self) -> "RelativePoseModel":
         """The same model with $f_{td} = \\tau_{td} = 0$ (what a controller that does not know
