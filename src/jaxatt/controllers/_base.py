@@ -30,10 +30,13 @@ class AbstractController(eqx.Module):
     - `admissible(t, measurement, reference, state) -> Bool[]`: whether the state is inside
       the set where the law's guarantees hold (e.g. inside a barrier). Checked after every
       completed step; a False makes the sample's status `constraint_violated`;
-    - `check_initial(t0, measurement, reference)`: called by `simulate` and `monte_carlo` on
-      the *concrete* initial values, before anything is compiled, to refuse an inadmissible
-      start with a `ValueError` that says why (see
-      [`RateConstrainedFiniteTimeMRP`][jaxatt.controllers.RateConstrainedFiniteTimeMRP]);
+    - `check_initial(t0, measurement, reference)`: called by `simulate` on the *concrete*
+      initial values, before anything is compiled, to refuse an inadmissible start with a
+      `ValueError` that says why (see
+      [`RateConstrainedFiniteTimeMRP`][jaxatt.controllers.RateConstrainedFiniteTimeMRP]).
+      Inside a batch (`monte_carlo`, or your own `vmap`) nothing is raised, so one bad draw
+      never aborts a study: `admissible` makes that sample `constraint_violated` at its first
+      completed step;
     - `check_measurement(measurement_type, observed)`: the construction-time check that this
       law can read the plant's measurements (`observed`: the loop has an observer);
     - `reference_type`: the reference output class the law reads (default: any).
