@@ -91,6 +91,14 @@ def test_abs_pow_matches_and_has_odd_derivative():
     assert np.isfinite(jax.grad(abs_pow)(0.0, 0.5))
 
 
+@pytest.mark.parametrize("a", [0.5, 1.0, 1.5])
+def test_abs_pow_derivative_at_zero_is_zero(a):
+    # |x|^a is even: its documented derivative a|x|^(a-1) sign(x) is 0 at x = 0. jnp.abs's
+    # derivative (1 at 0) used to give the one-sided slope there (4096 for a = 1/2).
+    value, (dx, da) = jax.jit(jax.value_and_grad(abs_pow, argnums=(0, 1)))(0.0, a)
+    assert value == 0.0 and dx == 0.0 and da == 0.0
+
+
 def test_safe_norm_zero_rows_have_zero_gradient_and_others_exact():
     x = jnp.array([[0.0, 0.0, 0.0], [3.0, 4.0, 0.0]])
     np.testing.assert_allclose(safe_norm(x), [0.0, 5.0])
