@@ -261,10 +261,10 @@ def test_eigvalsh3_gradients_are_the_eigenvector_projections_and_finite_where_re
         for f in (lambda m: eigvalsh3(m)[-1], lambda m: eigvalsh3(m)[0], largest_eigenvalue3):
             grads = jax.jit(jax.vmap(jax.grad(f)))(jnp.asarray(spectra_cases[name][:20]))
             assert np.all(np.isfinite(np.asarray(grads))), name
-    # at M = qI every eigenvalue moves with the trace: the mean of the three, I/3
-    np.testing.assert_allclose(
-        jax.grad(lambda m: eigvalsh3(m)[-1])(jnp.zeros((3, 3))), np.eye(3) / 3
-    )
+    # at M = qI every eigenvalue moves with the trace: the mean of the three, I/3 (the two
+    # below the largest used to move with diag(0, 1/2, 1/2), their sum's with diag(1, 4, 4)/3)
+    at_multiples = jax.jit(jax.vmap(jax.jacfwd(eigvalsh3)))(jnp.stack([0 * jnp.eye(3), jnp.eye(3)]))
+    np.testing.assert_allclose(at_multiples, np.broadcast_to(np.eye(3) / 3, (2, 3, 3, 3)))
 
 
 def test_eigvalsh3_never_hides_nan():
