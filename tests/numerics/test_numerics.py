@@ -91,6 +91,14 @@ def test_abs_pow_matches_and_has_odd_derivative():
     assert np.isfinite(jax.grad(abs_pow)(0.0, 0.5))
 
 
+@pytest.mark.parametrize("a", [0.5, 1.0, 1.5])
+def test_abs_pow_derivative_at_zero_is_zero(a):
+    # |x|^a is even: its documented derivative a|x|^(a-1) sign(x) is 0 at x = 0. jnp.abs's
+    # derivative (1 at 0) used to give the one-sided slope there (4096 for a = 1/2).
+    value, (dx, da) = jax.jit(jax.value_and_grad(abs_pow, argnums=(0, 1)))(0.0, a)
+    assert value == 0.0 and dx == 0.0 and da == 0.0
+
+
 def test_safe_norm_zero_rows_have_zero_gradient_and_others_exact():
     x = jnp.array([[0.0, 0.0, 0.0], [3.0, 4.0, 0.0]])
     np.testing.assert_allclose(safe_norm(x), [0.0, 5.0])
@@ -253,10 +261,10 @@ def test_eigvalsh3_gradients_are_the_eigenvector_projections_and_finite_where_re
         for f in (lambda m: eigvalsh3(m)[-1], lambda m: eigvalsh3(m)[0], largest_eigenvalue3):
             grads = jax.jit(jax.vmap(jax.grad(f)))(jnp.asarray(spectra_cases[name][:20]))
             assert np.all(np.isfinite(np.asarray(grads))), name
-    # at M = qI every eigenvalue moves with the trace: the mean of the three, I/3
-    np.testing.assert_allclose(
-        jax.grad(lambda m: eigvalsh3(m)[-1])(jnp.zeros((3, 3))), np.eye(3) / 3
-    )
+    # at M = qI every eigenvalue moves with the trace: the mean of the three, I/3 (the two
+    # below the largest used to move with diag(0, 1/2, 1/2), their sum's with diag(1, 4, 4)/3)
+    at_multiples = jax.jit(jax.vmap(jax.jacfwd(eigvalsh3)))(jnp.stack([0 * jnp.eye(3), jnp.eye(3)]))
+    np.testing.assert_allclose(at_multiples, np.broadcast_to(np.eye(3) / 3, (2, 3, 3, 3)))
 
 
 def test_eigvalsh3_never_hides_nan():

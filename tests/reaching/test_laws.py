@@ -342,6 +342,18 @@ def test_traced_invalid_gain_fails_at_run_time():
         build(jnp.asarray(-2.0))
 
 
+def test_convergence_time_gradient_at_zero_is_zero():
+    # T(s0) grows like |s0|^(1-alpha): both one-sided slopes at 0 are infinite, and the
+    # docstrings choose 0 (T is even; DoublePower's already gave 0). Power, FastPower and
+    # TwoPhasePower gave the right-sided capped slope (2.0e4, 6.2e4, 1.9e4) through abs_pow's
+    # derivative at 0. One compilation for the three laws.
+    laws = tuple(ALL_LAWS[k] for k in ("Power", "FastPower", "TwoPhasePower"))
+    slopes = eqx.filter_jit(lambda laws, s0: [jax.grad(law.convergence_time)(s0) for law in laws])(
+        laws, jnp.asarray(0.0)
+    )
+    np.testing.assert_array_equal(slopes, 0.0)
+
+
 @pytest.mark.parametrize("law", list(SMOOTH_LAWS.values()), ids=list(SMOOTH_LAWS))
 def test_convergence_time_requires_sign(law):
     with pytest.raises(ValueError, match=rf"{type(law).__name__}\.convergence_time.*Sign\(\)"):

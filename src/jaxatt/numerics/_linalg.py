@@ -164,9 +164,13 @@ def _eigvalsh3_unscaled(m: Float[Array, "3 3"]) -> Float[Array, "3"]:
     w1 = safe_normalize(jnp.cross(u, helper))
     w2 = jnp.cross(u, w1)
     low, high = _eigvalsh2(w1 @ m @ w1, w1 @ m @ w2, w2 @ m @ w2)
-    return jnp.where(
+    ordered = jnp.where(
         pair_on_top, jnp.stack([separated, low, high]), jnp.stack([low, high, separated])
     )
+    # M = qI (no cross product left): every eigenvalue is Smith's, q, with derivative I/3. The
+    # pair from the arbitrary plane orthogonal to e_1 would move with that plane's projection
+    # (diag(0, 1/2, 1/2)), and the three derivatives would not sum to the trace's I.
+    return jnp.where(best_length > 0, ordered, separated)
 
 
 def _largest_eigenvalue(gram: Float[Array, "n n"]) -> Float[Array, ""]:

@@ -109,7 +109,14 @@ class CothPerformance(AbstractPerformance):
         return 1.0 / jnp.tanh(self.l1 * t + self.l2) - 1.0 + self.final_value
 
     def derivative(self, t: RealScalarLike) -> Float[Array, "*k"]:
-        return -self.l1 / jnp.sinh(self.l1 * t + self.l2) ** 2
+        r"""$\dot\rho = -l_1/\sinh^2 x = -4l_1e^{-2x}/(1 - e^{-2x})^2$, $x = l_1t + l_2 > 0$.
+
+        The second form never overflows: $\sinh x$ does beyond $x \approx 710$, and the
+        derivatives of $\sinh^2 x$ were then $0 \cdot \infty$, NaN (in $t$, $l_1$, $l_2$), where
+        the true ones underflow to 0.
+        """
+        minus_2x = -2 * (self.l1 * t + self.l2)
+        return -4 * self.l1 * jnp.exp(minus_2x) / jnp.expm1(minus_2x) ** 2
 
 
 class FiniteTimePerformance(AbstractPerformance):
