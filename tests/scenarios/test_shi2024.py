@@ -126,6 +126,7 @@ def test_a_failed_sample_makes_the_vibration_loss_inf(monkeypatch):
     np.testing.assert_array_equal(aux["convergence_time"], [50.0, np.inf])
     np.testing.assert_array_equal(aux["residual_modal_energy"], [0.01, np.nan])
     np.testing.assert_array_equal(aux["status"], [0, int(Status.constraint_violated)])
+    np.testing.assert_array_equal(aux["successful"], [True, False])
 
 
 def test_a_failed_case_supports_no_claim():

@@ -95,7 +95,8 @@ class VibrationObjective(tuning.AbstractObjective):
     states (see the module docstring); aux: per-sample `convergence_time` and
     `residual_modal_energy`. The samples are unrolled (no `vmap`: the batches are tiny and a
     `vmap` doubles the compile time). A failed sample (see `objectives`) makes the loss `inf`,
-    and `aux["status"]` holds each sample's [`jaxatt.simulation.Status`][] code."""
+    and the aux holds `successful` and `status` (each sample's [`jaxatt.simulation.Status`][]
+    code), as the library's objectives do (`tune`'s error counts the failed samples)."""
 
     weight: Float[Array, ""]
     simulation: Simulation
@@ -147,7 +148,7 @@ class VibrationObjective(tuning.AbstractObjective):
         # its energy would give, nor a finite value), so that `tune` stops on it.
         loss = jnp.where(jnp.all(successful), loss, jnp.inf)
         aux = {"convergence_time": times, "residual_modal_energy": energies}
-        return loss, aux | {"status": status}
+        return loss, aux | {"successful": successful, "status": status}
 
 
 def template(frequency: float = START_FREQUENCY) -> ClosedLoop:
