@@ -25,6 +25,11 @@ def mrp_from_quat(q: Float[ArrayLike, "4"]) -> Float[Array, "3"]:
     $[0, 2\pi)$ reading) gives $\|\sigma\| > 1$, the shadow set of the MRP of `-q`. Apply
     [`mrp_switch`][] afterwards, or pass `quat_canonical(q)`, for $\|\sigma\| \le 1$.
 
+    **Norm:** `q` is not normalised here. For $\|q\| \ne 1$ the result is not the MRP of
+    the attitude of `q` (for $q = k\,\hat q$ it is $k\hat q_v / (1 + k\hat q_0)$, off by
+    about $|k - 1|$ relative); pass [`quat_normalize`][]`(q)` when the norm may have drifted
+    (a quaternion integrated by a solver keeps its norm only to the solver's accuracy).
+
     **Singular point:** $q_0 = -1$ (a $2\pi$ rotation) divides by zero and returns inf/NaN.
     The gradient is finite everywhere else, in particular at the identity.
     """
