@@ -45,3 +45,14 @@ def test_fly_around_normal_may_be_traced():
     normal = jnp.array([0.0, 0.0, 2.0])
     traced = jax.jit(lambda n: _fly_around(normal=n).normal)(normal)
     assert jnp.allclose(traced, jnp.array([0.0, 0.0, 1.0]))
+
+
+def test_fly_around_phase_origin_is_the_documented_axis():
+    """`phase` is measured from `basis()[0]`, documented as -y for the normal z (phase 0 on the
+    negative along-track axis) and +y for the normal x."""
+    for normal, a, b in (
+        ([0.0, 0.0, 1.0], [0, -1, 0], [1, 0, 0]),
+        ([1.0, 0, 0], [0, 1, 0], [0, 0, 1]),
+    ):
+        got_a, got_b = _fly_around(normal=jnp.array(normal)).basis()
+        assert jnp.allclose(got_a, jnp.array(a, float)) and jnp.allclose(got_b, jnp.array(b, float))

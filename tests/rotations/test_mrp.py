@@ -5,6 +5,7 @@ the quaternion route, SPEC seed 004 eq. (4) and finite differences.
 """
 
 import math
+from fractions import Fraction
 
 import jax
 import jax.numpy as jnp
@@ -218,6 +219,32 @@ def test_compose_singular_denominator():
     q_route = np.asarray(from_quat(quat_mul(to_quat(sa), to_quat(sb_near))))
     np.testing.assert_allclose(compose(sa, sb_near), q_route, rtol=1e-8)
     assert np.all(np.linalg.norm(q_route, axis=1) > 1)
+
+
+def _exact_compose(sa, sb):
+    """Schaub's addition formula in exact rational arithmetic on the float inputs."""
+    a, b = [Fraction(x) for x in sa], [Fraction(x) for x in sb]
+    a2, b2 = sum(x * x for x in a), sum(x * x for x in b)
+    cross = [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    den = 1 + a2 * b2 - 2 * sum(x * y for x, y in zip(a, b))
+    return [float(((1 - a2) * y + (1 - b2) * x + 2 * c) / den) for x, y, c in zip(a, b, cross)]
+
+
+def test_compose_is_accurate_near_a_full_turn():
+    # sigma_b 1e-6 away from the shadow of -sigma_a: the composed rotation is 1e-6 short of
+    # 2 pi, the literal MRP about 1e6 long, and what a controller uses is its shadow (the
+    # attitude error when the body and the reference sit in different shadow sets). The
+    # denominator 1 + a2 b2 - 2 a.b, ~1e-12, was computed by cancellation: relative errors up
+    # to 2e-3 (in the literal result and in its shadow); now ~1e-10 (eps / 1e-6).
+    rng = np.random.default_rng(7)
+    sa = rng.normal(size=(N, 3))
+    sa *= rng.uniform(0.2, 5.0, size=(N, 1)) / np.linalg.norm(sa, axis=1, keepdims=True)
+    sb = sa / np.sum(sa * sa, axis=1, keepdims=True) + 1e-6 * rng.normal(size=(N, 3))
+    got = np.asarray(compose(sa, sb))
+    exact = np.array([_exact_compose(x, y) for x, y in zip(sa, sb)])
+    assert np.all(np.linalg.norm(exact, axis=1) > 1e4)
+    np.testing.assert_allclose(got, exact, rtol=1e-8)
+    np.testing.assert_allclose(switch(got), switch(exact), rtol=1e-8, atol=1e-20)
 
 
 # --- gradients ------------------------------------------------------------------------

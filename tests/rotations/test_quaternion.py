@@ -211,12 +211,14 @@ def test_axis_angle_round_trips():
     axis3, angle3 = to_axis_angle(from_axis_angle(axes, np.full(N, 4.0)))
     np.testing.assert_allclose(angle3, 2 * math.pi - 4.0, atol=1e-14)
     np.testing.assert_allclose(axis3, -axes, atol=1e-14)
-    # Closed form [cos(phi/2), sin(phi/2) n]; the axis length does not matter.
-    np.testing.assert_allclose(
-        from_axis_angle(3.0 * axes, angles),
-        np.concatenate([np.cos(angles / 2)[:, None], np.sin(angles / 2)[:, None] * axes], 1),
-        atol=1e-15,
+    # Closed form [cos(phi/2), sin(phi/2) n]; the axis length does not matter, however small
+    # or large (|axis|^2 under/overflowed beyond ~1e-154 / 1e154: the result was
+    # [cos(phi/2), 0, 0, 0], not a unit quaternion).
+    closed_form = np.concatenate(
+        [np.cos(angles / 2)[:, None], np.sin(angles / 2)[:, None] * axes], 1
     )
+    for scale in (3.0, 1e-200, 1e200):
+        np.testing.assert_allclose(from_axis_angle(scale * axes, angles), closed_form, atol=1e-15)
 
 
 def test_axis_angle_degenerate_inputs():

@@ -51,7 +51,9 @@ class FlyAround(AbstractReference):
       anomaly at `t0` (the plant's initial $\theta$).
     - `radius`: $R_f > 0$ [m]; `rate`: $w_f$ [rad/s] (sign = direction);
       `normal`: $n_f$, any finite non-zero (3,) vector in Hill components (normalised here);
-      `phase`: $\varphi_0$ [rad]; `t0` [s].
+      `phase`: $\varphi_0$ [rad], measured from the in-plane axis $a$ of
+      [`basis`][jaxatt.references.FlyAround.basis] (for $n_f = \hat z$: phase 0 on the
+      negative along-track axis); `t0` [s].
     """
 
     a: Float[Array, ""]
@@ -126,7 +128,16 @@ class FlyAround(AbstractReference):
         self.t0 = check_finite(where, "t0", t0)
 
     def basis(self) -> tuple[Float[Array, "3"], Float[Array, "3"]]:
-        """$(a, b)$: orthonormal in the fly-around plane, $a \\times b = n_f$."""
+        r"""$(a, b)$: orthonormal in the fly-around plane, $a \times b = n_f$; `phase` is
+        measured from $a$.
+
+        $a = h \times n_f / \|h \times n_f\|$ with the helper $h = \hat z$ where
+        $|n_{f,z}| < 0.9$ and $h = \hat x$ otherwise, and $b = n_f \times a$. For example
+        $n_f = \hat z$ gives $a = -\hat y$, $b = \hat x$ (phase 0 starts on the negative
+        along-track axis, phase $\pi/2$ on the radial axis), $n_f = \hat x$ gives
+        $a = \hat y$, $b = \hat z$. No choice is continuous over every normal: where
+        $|n_{f,z}|$ crosses 0.9 the origin of `phase` jumps (and so do derivatives with
+        respect to `normal`)."""
         n = self.normal
         helper = jnp.where(jnp.abs(n[2]) < 0.9, jnp.array([0.0, 0.0, 1.0]), jnp.array([1.0, 0, 0]))
         a = jnp.cross(helper, n)

@@ -18,7 +18,9 @@ class IntegratedReference(AbstractReference):
 
     $\omega_d(t)$ is an analytic signal; $\dot\omega_d(t)$ is its exact time derivative,
     obtained with `jax.jvp` (no finite differences). $q_d$ is part of the closed-loop state and
-    integrated by the same solver as the plant.
+    integrated by the same solver as the plant, and returned as integrated: the flow keeps
+    $\|q_d\| = 1$ exactly, the solver only to its accuracy (not renormalised here; functions
+    that need a unit quaternion, such as [`jaxatt.rotations.mrp_from_quat`][], say so).
 
     This is Chen et al. (2022)'s reference (SPEC 000, erratum E11): $q_d(0) = [1,0,0,0]$ and
     $\omega_d = 0.05[\sin(0.01\pi t), \sin(0.02\pi t), \sin(0.03\pi t)]$ rad/s propagated by the

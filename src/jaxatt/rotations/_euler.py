@@ -17,7 +17,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
-from ..numerics import clip, vectorized_sincos
+from ..numerics import safe_norm, vectorized_sincos
 from ._quaternion import quat_from_axis_angle, quat_multiply
 
 
@@ -44,17 +44,36 @@ def euler321_to_dcm(angles: Float[ArrayLike, "3"]) -> Float[Array, "3 3"]:
 
 
 def euler321_from_dcm(c: Float[ArrayLike, "3 3"]) -> Float[Array, "3"]:
-    r"""3-2-1 angles of $C_{BN}$: $\phi = \operatorname{atan2}(C_{23}, C_{33})$,
-    $\theta = -\arcsin C_{13}$ (clipped to $[-1, 1]$),
-    $\psi = \operatorname{atan2}(C_{12}, C_{11})$.
+    r"""3-2-1 angles of $C_{BN}$, accurate to rounding for every attitude, gimbal lock included.
 
-    Returns $\phi, \psi \in (-\pi, \pi]$, $\theta \in [-\pi/2, \pi/2]$. At gimbal lock
-    ($|C_{13}| = 1$) only $\phi \mp \psi$ is determined and the split returned is arbitrary.
+    $$\psi = \operatorname{atan2}(C_{12}, C_{11}),\quad
+    \theta = \operatorname{atan2}\bigl(-C_{13}, \sqrt{C_{11}^2 + C_{12}^2}\bigr),\quad
+    \phi = \operatorname{atan2}(C_{31}s_\psi - C_{32}c_\psi,\; C_{22}c_\psi - C_{21}s_\psi).$$
+
+    Returns $\phi, \psi \in [-\pi, \pi]$, $\theta \in [-\pi/2, \pi/2]$.
+    $\theta$ comes from an arctangent, not $-\arcsin C_{13}$, whose error grows like
+    $\varepsilon/|\cos\theta|$ near $\theta = \pm\pi/2$. $\phi$ is the roll left once $\psi$
+    is undone ($R_1(\phi) = C R_3(\psi)^\top R_2(\theta)^\top$, rows 2 and 3 of column 2),
+    not $\operatorname{atan2}(C_{23}, C_{33})$: the two agree away from gimbal lock, but
+    only this one keeps $\phi$ consistent with the $\psi$ chosen where both are ill-defined.
+
+    **Gimbal lock** ($|C_{13}| = 1$, $\cos\theta = 0$): only $\phi - \psi$ (at
+    $\theta = \pi/2$) or $\phi + \psi$ (at $-\pi/2$) is determined. $\psi$ is then whatever
+    $\operatorname{atan2}(C_{12}, C_{11})$ gives on rounding-level entries (0 when they are
+    exactly 0), and $\phi$ completes it: `euler321_to_dcm` of the result reproduces `c` to
+    rounding everywhere.
+
+    **Gradient:** finite everywhere; at exact gimbal lock with $C_{11} = C_{12} = 0$ the
+    derivative of $\psi$ (undefined there) is 0 (double `where`).
     """
     c = jnp.asarray(c)
-    phi = jnp.arctan2(c[1, 2], c[2, 2])
-    theta = -jnp.arcsin(clip(c[0, 2], -1.0, 1.0))
-    psi = jnp.arctan2(c[0, 1], c[0, 0])
+    c11, c12 = c[0, 0], c[0, 1]
+    # Double where: atan2(0, 0) has a 0/0 derivative; only exact gimbal lock reaches it.
+    locked = (c11 == 0) & (c12 == 0)
+    psi = jnp.where(locked, 0, jnp.arctan2(c12, jnp.where(locked, 1, c11)))
+    theta = jnp.arctan2(-c[0, 2], safe_norm(jnp.stack([c11, c12])))
+    sp, cp = vectorized_sincos(psi)
+    phi = jnp.arctan2(c[2, 0] * sp - c[2, 1] * cp, c[1, 1] * cp - c[1, 0] * sp)
     return jnp.stack([phi, theta, psi])
 
 

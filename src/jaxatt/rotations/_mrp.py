@@ -25,6 +25,11 @@ def mrp_from_quat(q: Float[ArrayLike, "4"]) -> Float[Array, "3"]:
     $[0, 2\pi)$ reading) gives $\|\sigma\| > 1$, the shadow set of the MRP of `-q`. Apply
     [`mrp_switch`][] afterwards, or pass `quat_canonical(q)`, for $\|\sigma\| \le 1$.
 
+    **Norm:** `q` is not normalised here. For $\|q\| \ne 1$ the result is not the MRP of
+    the attitude of `q` (for $q = k\,\hat q$ it is $k\hat q_v / (1 + k\hat q_0)$, off by
+    about $|k - 1|$ relative); pass [`quat_normalize`][]`(q)` when the norm may have drifted
+    (a quaternion integrated by a solver keeps its norm only to the solver's accuracy).
+
     **Singular point:** $q_0 = -1$ (a $2\pi$ rotation) divides by zero and returns inf/NaN.
     The gradient is finite everywhere else, in particular at the identity.
     """
@@ -160,13 +165,19 @@ def mrp_compose(
     `mrp_from_quat(quat_multiply(quat_from_mrp(sigma_a), quat_from_mrp(sigma_b)))`, literal
     as that is: the result may have $\|\sigma\| > 1$ (use [`mrp_switch`][]).
 
+    **Accuracy:** where the composed rotation exceeds $\pi$ (composed $q_0 < 0$, the
+    denominator below $\|\sigma_a + \sigma_b\|^2$) the denominator, a difference of terms
+    of order 1, is computed as the equal $\|\mathrm{numerator}\|^2 / \|\sigma_a +
+    \sigma_b\|^2$, which has no cancellation: the result (and its [`mrp_switch`][]) stays
+    accurate to the numerator's rounding as $q_0 \to -1$, e.g. when `sigma_b` is nearly the
+    shadow set of `-sigma_a`.
+
     **Singular point:** the denominator vanishes exactly when the composed quaternion is
     $[-1, 0, 0, 0]$ (e.g. `sigma_b` is the shadow set of `-sigma_a`: the composition is the
     identity rotation). Where the denominator is below `16 eps` times
-    $(1 + \|\sigma_a\|^2)(1 + \|\sigma_b\|^2)$ (`eps` the dtype's machine epsilon; rounding
-    alone leaves up to ~1 eps there, and the literal result would exceed
-    $1/\sqrt{16\,\mathrm{eps}}$ in norm, about 2e7 in float64 and 7e2 in float32, with about
-    one correct digit) the shadow set
+    $(1 + \|\sigma_a\|^2)(1 + \|\sigma_b\|^2)$ (`eps` the dtype's machine epsilon; the
+    literal result would exceed $1/\sqrt{16\,\mathrm{eps}}$ in norm, about 2e7 in float64
+    and 7e2 in float32) the shadow set
     $-\mathrm{numerator} / \|\sigma_a + \sigma_b\|^2$ is returned instead: the same attitude,
     finite and close to 0; gradients stay finite (double `where`).
     """
@@ -175,12 +186,22 @@ def mrp_compose(
     a2 = jnp.dot(sigma_a, sigma_a)
     b2 = jnp.dot(sigma_b, sigma_b)
     numerator = (1 - a2) * sigma_b + (1 - b2) * sigma_a + 2 * jnp.cross(sigma_a, sigma_b)
-    denominator = 1 + a2 * b2 - 2 * jnp.dot(sigma_a, sigma_b)
     # denominator = (1 + q0) (1 + a2) (1 + b2) / 2 >= 0 and
-    # (1 + a2)(1 + b2) - denominator = |sigma_a + sigma_b|^2 = (1 - q0) (1 + a2) (1 + b2) / 2.
+    # (1 + a2)(1 + b2) - denominator = |sigma_a + sigma_b|^2 = (1 - q0) (1 + a2) (1 + b2) / 2,
+    # so |numerator|^2 = denominator * shadow_denominator (|sigma|^2 = (1 - q0) / (1 + q0)).
+    shadow_denominator = jnp.dot(sigma_a + sigma_b, sigma_a + sigma_b)
+    denominator = 1 + a2 * b2 - 2 * jnp.dot(sigma_a, sigma_b)
+    # For q0 < 0 the denominator cancels between O(1) terms (absolute error ~eps, relative
+    # eps / denominator); |numerator|^2 / shadow_denominator has the relative error of the
+    # numerator only. (Double where: the shadow denominator is 0 when sigma_a = -sigma_b.)
+    far = denominator < shadow_denominator
+    denominator = jnp.where(
+        far,
+        jnp.dot(numerator, numerator) / jnp.where(far, shadow_denominator, 1),
+        denominator,
+    )
     eps = jnp.finfo(numerator.dtype).eps
     singular = denominator <= 16 * eps * (1 + a2) * (1 + b2)
-    shadow_denominator = jnp.dot(sigma_a + sigma_b, sigma_a + sigma_b)
     literal = numerator / jnp.where(singular, 1, denominator)
     shadow = -numerator / jnp.where(singular, shadow_denominator, 1)
     return jnp.where(singular, shadow, literal)

@@ -97,17 +97,23 @@ def quat_from_axis_angle(axis: Float[ArrayLike, "3"], angle: RealScalarLike) -> 
     $\hat n$ (so [`quat_rotate`][] turns a vector by $+\phi$ about $\hat n$).
 
     **Arguments:**
-    - `axis`: rotation axis, any nonzero length (normalized here with
-      [`jaxatt.numerics.safe_normalize`][]). A zero axis gives the identity for every angle,
-      with zero gradient with respect to both arguments.
+    - `axis`: rotation axis, any nonzero finite length, tiny or huge (divided by its largest
+      entry, then normalized with [`jaxatt.numerics.safe_normalize`][]). A zero axis gives the
+      identity for every angle, with zero gradient with respect to both arguments.
     - `angle`: rotation angle [rad], any real value.
 
     **Returns:** a unit quaternion in the dtype of `axis`.
     """
     axis = jnp.asarray(axis)
     half = 0.5 * jnp.asarray(angle, dtype=axis.dtype)
-    unit = safe_normalize(axis)
     has_axis = jnp.any(axis != 0)
+    # Divided by its largest magnitude first: the squared length under- or overflows for
+    # lengths below ~1e-154 or above ~1e154 (float64), which made the "unit" axis 0 and the
+    # quaternion [cos(phi/2), 0, 0, 0], not a rotation. The direction does not depend on the
+    # scale, so the scale is held constant for differentiation: the derivative is exact, with
+    # no 1/largest^2 term to overflow.
+    largest = jax.lax.stop_gradient(jnp.max(jnp.abs(axis)))
+    unit = safe_normalize(axis / jnp.where(has_axis, largest, 1))
     sin_half, cos_half = vectorized_sincos(half)
     q = jnp.concatenate([cos_half[None], sin_half * unit])
     return jnp.where(has_axis, q, quat_identity(axis.dtype))
