@@ -509,3 +509,24 @@ def test_controller_admissibility_sets_the_status_at_the_first_bad_step():
     traj = jaxatt.simulate(slow, mrp_x0(), 0.0, 2.0, dt=0.01, throw=False)
     assert traj.status == jaxatt.Status.successful
     assert float(traj.failure_time) == np.inf
+
+
+@pytest.mark.parametrize(
+    "t0, t1, dt, n_steps",
+    [
+        (0.0, 0.3, 0.1, 3),  # 0.3 / 0.1 = 2.9999999999999996
+        (0.0, 1e6, 1e-3, 10**9),
+        (1e6, 1e6 + 1.0, 1e-3, 1000),  # t1 - t0 carries the rounding of 1e6
+        (0.0, 1e6 + 4e-4, 1e-3, None),
+        (0.0, 1e5 + 3e-4, 1e-3, None),
+    ],
+)
+def test_a_horizon_is_never_rounded_to_a_whole_step(t0, t1, dt, n_steps):
+    # Regression: the tolerance was 1e-9 of the step count, so from 5e8 steps on any horizon
+    # was accepted and silently shortened or lengthened to the nearest whole step (1e6 s +
+    # 0.4 ms at dt = 1 ms ran to 1e6 s). Nothing is compiled here.
+    if n_steps is None:
+        with pytest.raises(ValueError, match="whole multiple of `dt`.*steps"):
+            Simulation(t0, t1, dt)
+    else:
+        assert Simulation(t0, t1, dt).n_steps == n_steps

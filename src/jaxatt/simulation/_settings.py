@@ -13,7 +13,7 @@ import equinox as eqx
 import jax.numpy as jnp
 
 from ._performance import Performance
-from ._sampling import AbstractSampling, Continuous
+from ._sampling import AbstractSampling, Continuous, whole_steps
 from ._solvers import RK4, AbstractFixedStepSolver, as_fixed_step_solver
 
 
@@ -100,12 +100,12 @@ class Simulation(eqx.Module):
             raise ValueError(
                 f"{where}: `t1` must be greater than `t0`, got t0={self.t0}, t1={self.t1}."
             )
-        ratio = (self.t1 - self.t0) / self.dt
-        n_steps = round(ratio)
-        if n_steps < 1 or abs(ratio - n_steps) > 1e-9 * max(1.0, ratio):
+        span = self.t1 - self.t0
+        n_steps = whole_steps(span, self.dt, max(abs(self.t0), abs(self.t1)))
+        if n_steps is None:
             raise ValueError(
                 f"{where}: `t1 - t0` must be a whole multiple of `dt`, got "
-                f"t0={self.t0}, t1={self.t1}, dt={self.dt} ({ratio:.6g} steps)."
+                f"t0={self.t0}, t1={self.t1}, dt={self.dt} ({span / self.dt:.12g} steps)."
             )
         self.n_steps = n_steps
         self.save_every = _check_positive_int(where, "save_every", save_every)
