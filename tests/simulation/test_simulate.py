@@ -310,6 +310,23 @@ def test_bad_simulation_arguments_raise(kwargs, needle):
     assert needle in str(info.value)
 
 
+@pytest.mark.parametrize(
+    "kwargs, needle",
+    [
+        (dict(throw="False"), "simulate: `throw` must be True or False, got 'False'"),
+        (dict(throw=None), "simulate: `throw` must be True or False, got None"),
+        (dict(checkpoint=1.0), "`checkpoint` must be True, False or 'recursive', got 1.0"),
+        (dict(checkpoint=0), "`checkpoint` must be True, False or 'recursive', got 0"),
+    ],
+)
+def test_flags_must_be_booleans(kwargs, needle, no_jaxtyping):
+    # Regression: the flags were read with `bool` and `in`: throw="False" threw, throw=None did
+    # not, and checkpoint=1, 0 or 1.0 passed as True or False. (The suite's type checking
+    # rejects them at the annotation; users meet these checks, before anything is compiled.)
+    with pytest.raises(ValueError, match=re.escape(needle)):
+        jaxatt.simulate(mrp_pd_loop(), mrp_x0(), 0.0, 1.0, dt=0.1, **kwargs)
+
+
 def test_array_time_arguments_are_rejected_with_a_reason():
     # The annotation says `float`; without runtime type checking the check below catches it.
     from jaxatt.simulation._settings import _check_time

@@ -11,6 +11,7 @@ import numbers
 import diffrax as dfx
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 
 from ._performance import Performance
 from ._sampling import AbstractSampling, Continuous, whole_steps
@@ -122,7 +123,12 @@ class Simulation(eqx.Module):
         self.sampling = sampling
         self.steps_per_sample = sampling.steps_per_sample(self.dt)
         self.solver = as_fixed_step_solver(solver, where)
-        if checkpoint not in (True, False, "recursive"):
+        # `1 in (True, False)` holds: without the type check 1, 0 and 1.0 passed as flags.
+        if not (
+            isinstance(checkpoint, (bool, np.bool_))
+            or isinstance(checkpoint, str)
+            and checkpoint == "recursive"
+        ):
             raise ValueError(
                 f"{where}: `checkpoint` must be True, False or 'recursive', got {checkpoint!r}."
             )

@@ -6,7 +6,7 @@ import jax.tree_util as jtu
 import numpy as np
 from jaxtyping import PyTree
 
-from .._validation import is_traced
+from .._validation import check_flag, is_traced
 from ._closed_loop import AbstractClosedLoop
 from ._compiled import compiled
 from ._loop import integrate
@@ -103,6 +103,8 @@ def simulate(
     The compiled program holds no host callback; failures are raised here, on the host.
     """
     check_closed_loop("simulate", closed_loop)
+    # `bool(throw)` would read throw="False" as True and throw=None as False.
+    throw = check_flag("simulate", "throw", throw)
     sim = Simulation(
         t0,
         t1,
