@@ -3,10 +3,12 @@
 import re
 from typing import ClassVar
 
+import diffrax as dfx
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+import optimistix as optx
 import pytest
 from scipy.integrate import solve_ivp
 
@@ -243,7 +245,6 @@ def test_saturation_limits_applied_control():
 
 def test_diffrax_solver_and_euler_agree_with_rk4():
     loop = mrp_pd_loop(17.0, 15.0)
-    import diffrax as dfx
 
     def final(solver, dt):
         traj = jaxatt.simulate(
@@ -325,6 +326,32 @@ def test_flags_must_be_booleans(kwargs, needle, no_jaxtyping):
     # rejects them at the annotation; users meet these checks, before anything is compiled.)
     with pytest.raises(ValueError, match=re.escape(needle)):
         jaxatt.simulate(mrp_pd_loop(), mrp_x0(), 0.0, 1.0, dt=0.1, **kwargs)
+
+
+@pytest.mark.parametrize(
+    "solver, needle",
+    [
+        (dfx.ImplicitEuler(), "ImplicitEuler's root finder takes its tolerances from an adaptive"),
+        (dfx.Kvaerno5(), "Kvaerno5's root finder takes its tolerances from an adaptive"),
+        (dfx.KenCarp3(), "KenCarp3 integrates several terms"),
+        (dfx.SemiImplicitEuler(), "SemiImplicitEuler integrates several terms"),
+        (dfx.EulerHeun(), "EulerHeun integrates several terms"),
+    ],
+)
+def test_diffrax_solvers_that_cannot_run_at_a_fixed_step_are_refused(solver, needle):
+    # Regression: they failed inside the trace with "Type of `other` not understood", a bare
+    # AssertionError or an unpacking error. Now refused before anything is traced.
+    with pytest.raises(ValueError, match=re.escape(needle)):
+        Simulation(0.0, 1.0, 0.1, solver=solver)
+    # With explicit tolerances an implicit solver runs (constructing is enough here).
+    Simulation(0.0, 1.0, 0.1, solver=dfx.ImplicitEuler(root_finder=optx.Chord(1e-8, 1e-8)))
+
+
+def test_energy_meter_needs_an_actuator(no_jaxtyping):
+    # Regression: EnergyMeter(30.0) (a limit meant for Saturation) was accepted and failed
+    # while tracing with "'float' object has no attribute 'init'".
+    with pytest.raises(ValueError, match="EnergyMeter: `inner` must be an actuator model"):
+        jaxatt.simulation.EnergyMeter(30.0)
 
 
 def test_array_time_arguments_are_rejected_with_a_reason():

@@ -27,6 +27,11 @@ class EnergyMeter(AbstractActuator):
     inner: AbstractActuator
 
     def __init__(self, inner: AbstractActuator | None = None):
+        if inner is not None and not isinstance(inner, AbstractActuator):
+            raise ValueError(
+                f"EnergyMeter: `inner` must be an actuator model (e.g. Saturation(limit)) or "
+                f"None, got {type(inner).__name__}."
+            )
         self.inner = Ideal() if inner is None else inner
 
     def init(self, t0, command) -> EnergyMeterState:
