@@ -555,6 +555,24 @@ def test_controller_admissibility_sets_the_status_at_the_first_bad_step():
     assert float(traj.failure_time) == np.inf
 
 
+def test_a_failure_of_the_initial_state_is_said_to_be_one():
+    # Regression: the error said "constraint_violated at t = 0.5 s. ... its `admissible` check
+    # failed after a completed step" for a state that failed before any step (the loop times
+    # such a failure t0). A hand-made result: nothing to compile.
+    from jaxatt.simulation._simulate import raise_on_failure
+
+    def failed_at(time):
+        ts = jnp.array([0.5, 0.51, 0.52])
+        code = jnp.asarray(int(jaxatt.Status.constraint_violated), jnp.int32)
+        return jaxatt.simulation.Trajectory(ts, None, {}, code, jnp.asarray(time), {})
+
+    with pytest.raises(jaxatt.SimulationFailed, match="at t = 0.5 s.* on the initial state, at t0"):
+        raise_on_failure(failed_at(0.5))
+    with pytest.raises(jaxatt.SimulationFailed) as info:
+        raise_on_failure(failed_at(0.51))
+    assert "initial state" not in str(info.value)
+
+
 @pytest.mark.parametrize(
     "t0, t1, dt, n_steps",
     [

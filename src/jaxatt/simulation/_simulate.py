@@ -46,6 +46,9 @@ def raise_on_failure(traj: Trajectory) -> Trajectory:
         index = np.unravel_index(int(np.argmax(codes != 0)), codes.shape) if codes.ndim else ()
         failure_time = float(np.asarray(traj.failure_time)[index])
         detail = f" (sample {index[0] if len(index) == 1 else index})" if codes.ndim else ""
+        if failure_time == float(np.asarray(traj.ts).reshape(-1)[0]):
+            # The status message speaks of a completed step; this one failed before any.
+            detail += " It was detected on the initial state, at t0, before any step."
         raise SimulationFailed(Status(int(codes[index])), failure_time, detail)
     return traj
 

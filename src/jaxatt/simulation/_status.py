@@ -16,8 +16,9 @@ class Status(enum.IntEnum):
     """Outcome of one simulated closed loop (`Trajectory.status`).
 
     The first failure of a run is kept (a later one does not overwrite it), together with the
-    time at which it was detected (`Trajectory.failure_time`). Every condition is checked after
-    every completed integration step, not only at the saved times.
+    time at which it was detected (`Trajectory.failure_time`). Every condition is checked on the
+    initial state (a failure there is timed `t0`) and after every completed integration step
+    (timed at the step's end), not only at the saved times.
     """
 
     successful = 0
