@@ -14,7 +14,7 @@ from jaxatt._paths import get_path, parse_path
 from jaxatt.controllers import MRPPD, OpenLoop, QuaternionPD
 from jaxatt.plants import MRPState, Pulse, QuaternionState, RigidBodyMRP, RigidBodyQuaternion
 from jaxatt.references import NoReference
-from jaxatt.signals import Sinusoid
+from jaxatt.signals import Constant, Sinusoid
 from jaxatt.simulation import (
     ClosedLoop,
     Euler,
@@ -52,6 +52,18 @@ def test_zero_order_hold_with_a_one_period_delay():
     np.testing.assert_allclose(held.signals["u"], expected_now, rtol=1e-14, atol=1e-15)
     np.testing.assert_allclose(late.signals["u"], expected_late, rtol=1e-14, atol=1e-15)
     assert np.all(np.asarray(late.signals["u"])[ts < period] == 0)
+
+
+def test_a_delayed_command_reaches_a_lag_one_period_late():
+    """Under delay=True the actuator receives zeros over the first period: a lag starts at rest
+    and follows the first command from t_1 (Euler, tau = dt = period: u_2 = u_cmd(t_0))."""
+    # Regression: the lag's state started at the command computed at t_0, so the full torque
+    # was applied over the first period, before that command had reached the actuator.
+    command = Constant(jnp.array([1.0, -2.0, 0.5]))
+    loop = _open_loop(command, FirstOrderLag(0.1))
+    hold = ZeroOrderHold(0.1, delay=True)
+    traj = jaxatt.simulate(loop, mrp_x0(), 0.0, 0.2, dt=0.1, sampling=hold, solver=Euler())
+    np.testing.assert_allclose(traj.signals["u"], [[0.0] * 3, [0.0] * 3, [1.0, -2.0, 0.5]])
 
 
 def test_first_order_lag_actuator_state_lives_in_the_loop():

@@ -68,7 +68,8 @@ class ZeroOrderHold(AbstractSampling):
     - `period`: $T > 0$ [s], a whole multiple of the integration step `dt`. Static: changing
       it recompiles, like changing `dt`.
     - `delay`: apply each command one period late: the command computed at $t_k$ acts over
-      $[t_{k+1}, t_{k+2})$, and over the first period the actuator receives zeros. This is
+      $[t_{k+1}, t_{k+2})$, and over the first period the actuator receives zeros (a
+      stateful actuator, e.g. a [`FirstOrderLag`][], starts from that zero command). This is
       the timing of Basilisk's examples, where the flight software reads the sensors at
       $t_k$ and its command message reaches the actuator at the next task update. Default
       False (the command acts at once).
