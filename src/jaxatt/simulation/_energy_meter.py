@@ -18,10 +18,11 @@ class EnergyMeter(AbstractActuator):
     r"""Apply `inner` and integrate $E(t) = \int_{t_0}^{t}\|u(\tau)\|_2^2\,d\tau$ of the applied
     control as part of the closed-loop state (signal `"energy"`).
 
-    With a zero-order hold the control is constant over each step, so a Runge-Kutta solver
-    integrates $E$ exactly ($h\sum_k\|u_k\|^2$), whatever the save interval: use it where the
-    trajectory is saved sparsely (e.g. controllers with long memories) or the control
-    chatters between saves, where a trapezoid rule on the saved `u` would be wrong.
+    With a zero-order hold and a stateless `inner` (ideal, saturations) the applied control is
+    constant over each step, so a Runge-Kutta solver integrates $E$ exactly
+    ($h\sum_k\|u_k\|^2$), whatever the save interval: use it where the trajectory is saved
+    sparsely (e.g. controllers with long memories) or the control chatters between saves,
+    where a trapezoid rule on the saved `u` would be wrong.
     """
 
     inner: AbstractActuator

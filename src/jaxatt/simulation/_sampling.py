@@ -65,8 +65,10 @@ class ZeroOrderHold(AbstractSampling):
     states thus advance by forward Euler at the controller rate, as on a flight computer).
 
     **Arguments:**
-    - `period`: $T > 0$ [s], a whole multiple of the integration step `dt`. Static: changing
-      it recompiles, like changing `dt`.
+    - `period`: $T > 0$ [s], a whole multiple of the integration step `dt` (the horizon need
+      not be a multiple of $T$: the last hold ends at `t1`; a period longer than the horizon
+      holds the command computed at `t0` throughout). Static: changing it recompiles, like
+      changing `dt`.
     - `delay`: apply each command one period late: the command computed at $t_k$ acts over
       $[t_{k+1}, t_{k+2})$, and over the first period the actuator receives zeros (a
       stateful actuator, e.g. a [`FirstOrderLag`][], starts from that zero command). This is

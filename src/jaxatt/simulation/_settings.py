@@ -47,7 +47,8 @@ class Simulation(eqx.Module):
     - `solver`: [`RK4`][]`()` (default), [`Euler`][]`()`, or any diffrax solver (used at a
       fixed step).
     - `save_every`: save every this many steps (must divide the step count); the first save
-      is at `t0`, the last at `t1`.
+      is at `t0`, the last at `t1` (the save times are $t_0 + k\,dt$ in the state's dtype,
+      so the last may be `t1` rounded by an ulp: `0.0 + 3 * 0.1` is 0.30000000000000004).
     - `checkpoint`: how reverse-mode autodiff stores the loop (no effect without `grad`):
       `True` rematerializes each save interval (the loop state is stored once per save, the
       steps inside an interval are recomputed); `"recursive"` runs the save intervals through

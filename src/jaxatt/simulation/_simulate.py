@@ -82,7 +82,8 @@ def simulate(
       `ZeroOrderHold(period, delay=False)`.
     - `solver`: `RK4()` (default), `Euler()`, or any diffrax solver (used at a fixed step).
     - `save_every`: save every this many steps (must divide the step count); the first save
-      is at `t0`, the last at `t1`.
+      is at `t0`, the last at `t1` (the save times are $t_0 + k\,dt$ in the state's dtype,
+      so the last may be `t1` rounded by an ulp: `0.0 + 3 * 0.1` is 0.30000000000000004).
     - `checkpoint`: rematerialize each save interval in reverse-mode autodiff, so gradient
       memory grows with the number of saves rather than of steps; `"recursive"` runs
       equinox's checkpointed scan (online treeverse), which stores at most `checkpoints` loop
