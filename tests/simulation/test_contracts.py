@@ -84,6 +84,17 @@ def test_first_order_lag_actuator_state_lives_in_the_loop():
     np.testing.assert_array_equal(traj.signals["u_cmd"][on], [[1.0, 0.0, -2.0]] * int(on.sum()))
 
 
+def test_a_chain_refuses_two_stages_recording_one_signal():
+    # Regression: Chain.signals merged the stages' signals with dict.update, so with two
+    # EnergyMeter stages "energy" silently held the last one's value. Eager: nothing compiles.
+    from jaxatt.simulation import Chain, EnergyMeter
+
+    chain = Chain(EnergyMeter(), EnergyMeter(Saturation(1.0)))
+    command = jnp.array([2.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="Chain: two stages record the signal 'energy'"):
+        chain.signals(0.0, command, chain.init(0.0, command))
+
+
 def test_lag_then_saturation_in_a_chain():
     loop = ClosedLoop(
         RigidBodyMRP(J0),

@@ -178,6 +178,12 @@ class Chain(AbstractActuator):
     def signals(self, t, command, state):
         out = {}
         for stage, stage_state in zip(self.stages, state):
-            out.update(stage.signals(t, command, stage_state))
+            for name, value in stage.signals(t, command, stage_state).items():
+                if name in out:  # `dict.update` kept the last stage's value, silently
+                    raise ValueError(
+                        f"Chain: two stages record the signal {name!r} (e.g. two EnergyMeter "
+                        f"stages); keep one, or wrap the chain in one EnergyMeter."
+                    )
+                out[name] = value
             command, _ = stage(t, command, stage_state)
         return out
