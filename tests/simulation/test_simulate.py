@@ -592,3 +592,19 @@ def test_a_horizon_is_never_rounded_to_a_whole_step(t0, t1, dt, n_steps):
             Simulation(t0, t1, dt)
     else:
         assert Simulation(t0, t1, dt).n_steps == n_steps
+
+
+def test_a_limit_that_is_not_positive_at_run_time_fails_the_sample():
+    # Regression: a limit reached by tracing (a sampled or tuned one, which the constructor
+    # cannot refuse) was used as it was: Saturation(-1) applied -1 N m for every positive
+    # command, NormSaturation(-1) turned the torque around; plausible runs. Now the applied
+    # control is NaN (the sample fails). Eager calls: nothing is compiled.
+    u = jnp.array([2.0, -0.5, 0.1])
+    for actuator, name in ((Saturation(1.0), "limit"), (NormSaturation(1.0), "max_norm")):
+        for bad in (-1.0, 0.0, jnp.nan):
+            broken = eqx.tree_at(lambda a: getattr(a, name), actuator, jnp.asarray(bad))
+            assert np.all(np.isnan(broken(0.0, u, None)[0])), (name, bad)
+    np.testing.assert_allclose(Saturation(1.0)(0.0, u, None)[0], [1.0, -0.5, 0.1])
+    np.testing.assert_allclose(NormSaturation(1.0)(0.0, u, None)[0], u / np.linalg.norm(u))
+    per_axis = eqx.tree_at(lambda a: a.limit, Saturation(jnp.ones(3)), jnp.array([1.0, -1.0, 1.0]))
+    np.testing.assert_array_equal(np.isnan(per_axis(0.0, u, None)[0]), [False, True, False])
