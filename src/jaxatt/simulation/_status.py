@@ -36,7 +36,8 @@ _MESSAGES = {
     Status.successful: "The simulation succeeded.",
     Status.nonfinite_state: (
         "The closed-loop state became NaN or infinite: the loop diverged or the step `dt` is too "
-        "large for its fastest dynamics. Reduce `dt`, or check gains and initial conditions."
+        "large for its fastest dynamics. Reduce `dt`, or check gains and initial conditions "
+        "(and sampled or tuned actuator limits: one that is not positive makes the control NaN)."
     ),
     Status.constraint_violated: (
         "The controller left its admissible set (its `admissible` check failed after a "
