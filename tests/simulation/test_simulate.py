@@ -26,6 +26,7 @@ from jaxatt.references import ConstantAttitude, IntegratedReference
 from jaxatt.simulation import (
     ClosedLoop,
     Euler,
+    FirstOrderLag,
     NormSaturation,
     Saturation,
     Simulation,
@@ -606,5 +607,8 @@ def test_a_limit_that_is_not_positive_at_run_time_fails_the_sample():
             assert np.all(np.isnan(broken(0.0, u, None)[0])), (name, bad)
     np.testing.assert_allclose(Saturation(1.0)(0.0, u, None)[0], [1.0, -0.5, 0.1])
     np.testing.assert_allclose(NormSaturation(1.0)(0.0, u, None)[0], u / np.linalg.norm(u))
+    # A lag's time constant: its state's derivative is NaN (a negative one grew exponentially).
+    lag = eqx.tree_at(lambda a: a.time_constant, FirstOrderLag(0.1), jnp.asarray(-0.1))
+    assert np.all(np.isnan(lag(0.0, u, jnp.zeros(3))[1]))
     per_axis = eqx.tree_at(lambda a: a.limit, Saturation(jnp.ones(3)), jnp.array([1.0, -1.0, 1.0]))
     np.testing.assert_array_equal(np.isnan(per_axis(0.0, u, None)[0]), [False, True, False])

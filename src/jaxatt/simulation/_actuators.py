@@ -142,7 +142,9 @@ class FirstOrderLag(AbstractActuator):
     the first command (`init`), so a constant command is applied exactly.
 
     **Arguments:**
-    - `time_constant`: $\tau > 0$ [s], scalar or per axis.
+    - `time_constant`: $\tau > 0$ [s], scalar or per axis. One that is not positive at run
+      time (traced: sampled or tuned) makes the state's derivative NaN, so the sample fails
+      (a negative one would make the lag grow exponentially, plausibly for a while).
     """
 
     time_constant: Float[Array, "*m"]
@@ -158,7 +160,7 @@ class FirstOrderLag(AbstractActuator):
     def __call__(self, t, command, state):
         del t
         _check_matches_command("FirstOrderLag", "time_constant", self.time_constant, command)
-        return state, (command - state) / self.time_constant
+        return state, (command - state) / _nan_unless_positive(self.time_constant)
 
 
 class Chain(AbstractActuator):
