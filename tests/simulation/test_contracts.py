@@ -14,7 +14,7 @@ from jaxatt._paths import get_path, parse_path
 from jaxatt.controllers import MRPPD, OpenLoop, QuaternionPD
 from jaxatt.plants import MRPState, Pulse, QuaternionState, RigidBodyMRP, RigidBodyQuaternion
 from jaxatt.references import NoReference
-from jaxatt.signals import Sinusoid
+from jaxatt.signals import Constant, Sinusoid
 from jaxatt.simulation import (
     ClosedLoop,
     Euler,
@@ -54,6 +54,18 @@ def test_zero_order_hold_with_a_one_period_delay():
     assert np.all(np.asarray(late.signals["u"])[ts < period] == 0)
 
 
+def test_a_delayed_command_reaches_a_lag_one_period_late():
+    """Under delay=True the actuator receives zeros over the first period: a lag starts at rest
+    and follows the first command from t_1 (Euler, tau = dt = period: u_2 = u_cmd(t_0))."""
+    # Regression: the lag's state started at the command computed at t_0, so the full torque
+    # was applied over the first period, before that command had reached the actuator.
+    command = Constant(jnp.array([1.0, -2.0, 0.5]))
+    loop = _open_loop(command, FirstOrderLag(0.1))
+    hold = ZeroOrderHold(0.1, delay=True)
+    traj = jaxatt.simulate(loop, mrp_x0(), 0.0, 0.2, dt=0.1, sampling=hold, solver=Euler())
+    np.testing.assert_allclose(traj.signals["u"], [[0.0] * 3, [0.0] * 3, [1.0, -2.0, 0.5]])
+
+
 def test_first_order_lag_actuator_state_lives_in_the_loop():
     """tau u' = u_cmd - u from u(0) = u_cmd(0): a step of the command at t = 0.5 s is followed
     exponentially (RK4 at dt = 1e-3: error ~ 1e-12); the lag's state is the applied control."""
@@ -70,6 +82,17 @@ def test_first_order_lag_actuator_state_lives_in_the_loop():
     np.testing.assert_allclose(traj.actuator_states, traj.signals["u"], rtol=0, atol=0)
     on = ts >= 0.5
     np.testing.assert_array_equal(traj.signals["u_cmd"][on], [[1.0, 0.0, -2.0]] * int(on.sum()))
+
+
+def test_a_chain_refuses_two_stages_recording_one_signal():
+    # Regression: Chain.signals merged the stages' signals with dict.update, so with two
+    # EnergyMeter stages "energy" silently held the last one's value. Eager: nothing compiles.
+    from jaxatt.simulation import Chain, EnergyMeter
+
+    chain = Chain(EnergyMeter(), EnergyMeter(Saturation(1.0)))
+    command = jnp.array([2.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="Chain: two stages record the signal 'energy'"):
+        chain.signals(0.0, command, chain.init(0.0, command))
 
 
 def test_lag_then_saturation_in_a_chain():

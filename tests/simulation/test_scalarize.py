@@ -245,3 +245,11 @@ def test_large_matrix_products_stay_packed():
         np.testing.assert_allclose(out, laplacian @ x, rtol=1e-15)
     with pytest.raises(ValueError, match="`max_unrolled_products` must be a positive integer"):
         Performance(max_unrolled_products=0)
+
+
+@pytest.mark.parametrize("bad", [1, 0, 1.0, "True"])
+def test_scalarize_must_be_a_flag(bad, no_jaxtyping):
+    # Regression: `scalarize not in (None, True, False)` let 1, 0 and 1.0 through (they compare
+    # equal to the booleans). (The suite's type checking rejects them first; users meet this.)
+    with pytest.raises(ValueError, match="`scalarize` must be True, False or None"):
+        Performance(scalarize=bad)

@@ -3,10 +3,12 @@
 import re
 from typing import ClassVar
 
+import diffrax as dfx
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+import optimistix as optx
 import pytest
 from scipy.integrate import solve_ivp
 
@@ -24,6 +26,7 @@ from jaxatt.references import ConstantAttitude, IntegratedReference
 from jaxatt.simulation import (
     ClosedLoop,
     Euler,
+    FirstOrderLag,
     NormSaturation,
     Saturation,
     Simulation,
@@ -243,7 +246,6 @@ def test_saturation_limits_applied_control():
 
 def test_diffrax_solver_and_euler_agree_with_rk4():
     loop = mrp_pd_loop(17.0, 15.0)
-    import diffrax as dfx
 
     def final(solver, dt):
         traj = jaxatt.simulate(
@@ -308,6 +310,49 @@ def test_bad_simulation_arguments_raise(kwargs, needle):
     with pytest.raises(ValueError) as info:
         jaxatt.simulate(mrp_pd_loop(), x0, 0.0, t1, **args)
     assert needle in str(info.value)
+
+
+@pytest.mark.parametrize(
+    "kwargs, needle",
+    [
+        (dict(throw="False"), "simulate: `throw` must be True or False, got 'False'"),
+        (dict(throw=None), "simulate: `throw` must be True or False, got None"),
+        (dict(checkpoint=1.0), "`checkpoint` must be True, False or 'recursive', got 1.0"),
+        (dict(checkpoint=0), "`checkpoint` must be True, False or 'recursive', got 0"),
+    ],
+)
+def test_flags_must_be_booleans(kwargs, needle, no_jaxtyping):
+    # Regression: the flags were read with `bool` and `in`: throw="False" threw, throw=None did
+    # not, and checkpoint=1, 0 or 1.0 passed as True or False. (The suite's type checking
+    # rejects them at the annotation; users meet these checks, before anything is compiled.)
+    with pytest.raises(ValueError, match=re.escape(needle)):
+        jaxatt.simulate(mrp_pd_loop(), mrp_x0(), 0.0, 1.0, dt=0.1, **kwargs)
+
+
+@pytest.mark.parametrize(
+    "solver, needle",
+    [
+        (dfx.ImplicitEuler(), "ImplicitEuler's root finder takes its tolerances from an adaptive"),
+        (dfx.Kvaerno5(), "Kvaerno5's root finder takes its tolerances from an adaptive"),
+        (dfx.KenCarp3(), "KenCarp3 integrates several terms"),
+        (dfx.SemiImplicitEuler(), "SemiImplicitEuler integrates several terms"),
+        (dfx.EulerHeun(), "EulerHeun integrates several terms"),
+    ],
+)
+def test_diffrax_solvers_that_cannot_run_at_a_fixed_step_are_refused(solver, needle):
+    # Regression: they failed inside the trace with "Type of `other` not understood", a bare
+    # AssertionError or an unpacking error. Now refused before anything is traced.
+    with pytest.raises(ValueError, match=re.escape(needle)):
+        Simulation(0.0, 1.0, 0.1, solver=solver)
+    # With explicit tolerances an implicit solver runs (constructing is enough here).
+    Simulation(0.0, 1.0, 0.1, solver=dfx.ImplicitEuler(root_finder=optx.Chord(1e-8, 1e-8)))
+
+
+def test_energy_meter_needs_an_actuator(no_jaxtyping):
+    # Regression: EnergyMeter(30.0) (a limit meant for Saturation) was accepted and failed
+    # while tracing with "'float' object has no attribute 'init'".
+    with pytest.raises(ValueError, match="EnergyMeter: `inner` must be an actuator model"):
+        jaxatt.simulation.EnergyMeter(30.0)
 
 
 def test_array_time_arguments_are_rejected_with_a_reason():
@@ -509,3 +554,61 @@ def test_controller_admissibility_sets_the_status_at_the_first_bad_step():
     traj = jaxatt.simulate(slow, mrp_x0(), 0.0, 2.0, dt=0.01, throw=False)
     assert traj.status == jaxatt.Status.successful
     assert float(traj.failure_time) == np.inf
+
+
+def test_a_failure_of_the_initial_state_is_said_to_be_one():
+    # Regression: the error said "constraint_violated at t = 0.5 s. ... its `admissible` check
+    # failed after a completed step" for a state that failed before any step (the loop times
+    # such a failure t0). A hand-made result: nothing to compile.
+    from jaxatt.simulation._simulate import raise_on_failure
+
+    def failed_at(time):
+        ts = jnp.array([0.5, 0.51, 0.52])
+        code = jnp.asarray(int(jaxatt.Status.constraint_violated), jnp.int32)
+        return jaxatt.simulation.Trajectory(ts, None, {}, code, jnp.asarray(time), {})
+
+    with pytest.raises(jaxatt.SimulationFailed, match="at t = 0.5 s.* on the initial state, at t0"):
+        raise_on_failure(failed_at(0.5))
+    with pytest.raises(jaxatt.SimulationFailed) as info:
+        raise_on_failure(failed_at(0.51))
+    assert "initial state" not in str(info.value)
+
+
+@pytest.mark.parametrize(
+    "t0, t1, dt, n_steps",
+    [
+        (0.0, 0.3, 0.1, 3),  # 0.3 / 0.1 = 2.9999999999999996
+        (0.0, 1e6, 1e-3, 10**9),
+        (1e6, 1e6 + 1.0, 1e-3, 1000),  # t1 - t0 carries the rounding of 1e6
+        (0.0, 1e6 + 4e-4, 1e-3, None),
+        (0.0, 1e5 + 3e-4, 1e-3, None),
+    ],
+)
+def test_a_horizon_is_never_rounded_to_a_whole_step(t0, t1, dt, n_steps):
+    # Regression: the tolerance was 1e-9 of the step count, so from 5e8 steps on any horizon
+    # was accepted and silently shortened or lengthened to the nearest whole step (1e6 s +
+    # 0.4 ms at dt = 1 ms ran to 1e6 s). Nothing is compiled here.
+    if n_steps is None:
+        with pytest.raises(ValueError, match="whole multiple of `dt`.*steps"):
+            Simulation(t0, t1, dt)
+    else:
+        assert Simulation(t0, t1, dt).n_steps == n_steps
+
+
+def test_a_limit_that_is_not_positive_at_run_time_fails_the_sample():
+    # Regression: a limit reached by tracing (a sampled or tuned one, which the constructor
+    # cannot refuse) was used as it was: Saturation(-1) applied -1 N m for every positive
+    # command, NormSaturation(-1) turned the torque around; plausible runs. Now the applied
+    # control is NaN (the sample fails). Eager calls: nothing is compiled.
+    u = jnp.array([2.0, -0.5, 0.1])
+    for actuator, name in ((Saturation(1.0), "limit"), (NormSaturation(1.0), "max_norm")):
+        for bad in (-1.0, 0.0, jnp.nan):
+            broken = eqx.tree_at(lambda a: getattr(a, name), actuator, jnp.asarray(bad))
+            assert np.all(np.isnan(broken(0.0, u, None)[0])), (name, bad)
+    np.testing.assert_allclose(Saturation(1.0)(0.0, u, None)[0], [1.0, -0.5, 0.1])
+    np.testing.assert_allclose(NormSaturation(1.0)(0.0, u, None)[0], u / np.linalg.norm(u))
+    # A lag's time constant: its state's derivative is NaN (a negative one grew exponentially).
+    lag = eqx.tree_at(lambda a: a.time_constant, FirstOrderLag(0.1), jnp.asarray(-0.1))
+    assert np.all(np.isnan(lag(0.0, u, jnp.zeros(3))[1]))
+    per_axis = eqx.tree_at(lambda a: a.limit, Saturation(jnp.ones(3)), jnp.array([1.0, -1.0, 1.0]))
+    np.testing.assert_array_equal(np.isnan(per_axis(0.0, u, None)[0]), [False, True, False])

@@ -33,6 +33,14 @@ def _check_matches_command(where: str, name: str, value: ArrayLike, command) -> 
         )
 
 
+def _nan_unless_positive(limit: Array) -> Array:
+    """`limit` where it is positive, NaN elsewhere. The constructors refuse a non-positive
+    limit, but one reached by tracing (a batch of sampled limits, a tuning step) cannot be
+    refused: a negative one would turn the command around (the run would look plausible),
+    so it makes the applied control NaN, which the loop reports as a failed sample."""
+    return jnp.where(limit > 0, limit, jnp.nan)
+
+
 class AbstractActuator(eqx.Module):
     r"""Maps the commanded control to the applied one, with an optional state of its own.
 
@@ -84,6 +92,9 @@ class Saturation(AbstractActuator):
 
     **Gradient:** 1 inside the limits, 0 where an axis is saturated (with respect to `u`);
     with respect to `limit`, 1 on saturated axes.
+
+    A limit that is not positive at run time (traced, so not refused here: a sampled or tuned
+    limit) makes the applied control NaN, so the sample is reported as failed.
     """
 
     limit: Float[Array, "*m"]
@@ -94,7 +105,8 @@ class Saturation(AbstractActuator):
     def __call__(self, t, command, state):
         del t, state
         _check_matches_command("Saturation", "limit", self.limit, command)
-        return clip(command, -self.limit, self.limit), None
+        limit = _nan_unless_positive(self.limit)
+        return clip(command, -limit, limit), None
 
 
 class NormSaturation(AbstractActuator):
@@ -103,7 +115,9 @@ class NormSaturation(AbstractActuator):
     $u \leftarrow u \min(1, u_{\max}/\|u\|)$.
 
     **Arguments:**
-    - `max_norm`: $u_{\max} > 0$ [N m], a scalar (a per-axis limit is [`Saturation`][]).
+    - `max_norm`: $u_{\max} > 0$ [N m], a scalar (a per-axis limit is [`Saturation`][]). One
+      that is not positive at run time (traced) makes the applied control NaN, as in
+      [`Saturation`][].
     """
 
     max_norm: Float[Array, ""]
@@ -114,8 +128,9 @@ class NormSaturation(AbstractActuator):
     def __call__(self, t, command, state):
         del t, state
         norm = safe_norm(command)
-        over = norm > self.max_norm
-        scale = jnp.where(over, self.max_norm / jnp.where(over, norm, 1), 1)
+        max_norm = _nan_unless_positive(self.max_norm)
+        over = ~(norm <= max_norm)  # a NaN limit scales by NaN
+        scale = jnp.where(over, max_norm / jnp.where(over, norm, 1), 1)
         return command * scale, None
 
 
@@ -127,7 +142,9 @@ class FirstOrderLag(AbstractActuator):
     the first command (`init`), so a constant command is applied exactly.
 
     **Arguments:**
-    - `time_constant`: $\tau > 0$ [s], scalar or per axis.
+    - `time_constant`: $\tau > 0$ [s], scalar or per axis. One that is not positive at run
+      time (traced: sampled or tuned) makes the state's derivative NaN, so the sample fails
+      (a negative one would make the lag grow exponentially, plausibly for a while).
     """
 
     time_constant: Float[Array, "*m"]
@@ -143,7 +160,7 @@ class FirstOrderLag(AbstractActuator):
     def __call__(self, t, command, state):
         del t
         _check_matches_command("FirstOrderLag", "time_constant", self.time_constant, command)
-        return state, (command - state) / self.time_constant
+        return state, (command - state) / _nan_unless_positive(self.time_constant)
 
 
 class Chain(AbstractActuator):
@@ -178,6 +195,12 @@ class Chain(AbstractActuator):
     def signals(self, t, command, state):
         out = {}
         for stage, stage_state in zip(self.stages, state):
-            out.update(stage.signals(t, command, stage_state))
+            for name, value in stage.signals(t, command, stage_state).items():
+                if name in out:  # `dict.update` kept the last stage's value, silently
+                    raise ValueError(
+                        f"Chain: two stages record the signal {name!r} (e.g. two EnergyMeter "
+                        f"stages); keep one, or wrap the chain in one EnergyMeter."
+                    )
+                out[name] = value
             command, _ = stage(t, command, stage_state)
         return out

@@ -38,7 +38,9 @@ class AbstractClosedLoop(eqx.Module):
 
     - `check_state(x0, name, batch_shape)` and `check_initial(t0, x0)`: host-side checks of
       concrete initial values, before anything is compiled;
-    - `init(t0, x0) -> y0`;
+    - `init(t0, x0) -> y0`; optionally `init_delayed(t0, x0) -> y0`, the state at `t0` under
+      `ZeroOrderHold(period, delay=True)`, where the actuator receives zeros over the first
+      period (default: `init`);
     - `hold(t, y) -> held`: the sampled outputs (command and flight-software derivatives);
     - `vector_field(t, y, held) -> y_dot`;
     - `physics_update(t, y) -> (y, events)`: the discrete maps of the physical parts after a
@@ -69,6 +71,11 @@ class AbstractClosedLoop(eqx.Module):
     @abc.abstractmethod
     def init(self, t0: RealScalarLike, x0: PyTree[Array]) -> PyTree[Array]:
         """The closed-loop state at `t0`."""
+
+    def init_delayed(self, t0: RealScalarLike, x0: PyTree[Array]) -> PyTree[Array]:
+        """The closed-loop state at `t0` when the first command reaches the actuator one period
+        late (it receives zeros until then); default: `init`."""
+        return self.init(t0, x0)
 
     @abc.abstractmethod
     def hold(self, t: RealScalarLike, y: PyTree[Array]) -> PyTree[Array]:
@@ -303,6 +310,14 @@ class ClosedLoop(AbstractClosedLoop):
     # --- The contract ----------------------------------------------------------------------
 
     def init(self, t0: RealScalarLike, x0: PyTree[Array]) -> ClosedLoopState:
+        return self._init(t0, x0, delayed=False)
+
+    def init_delayed(self, t0: RealScalarLike, x0: PyTree[Array]) -> ClosedLoopState:
+        """As `init`, but the actuator starts from the zero command it receives over the first
+        period (a `FirstOrderLag` starts at rest, not at a command that has not reached it)."""
+        return self._init(t0, x0, delayed=True)
+
+    def _init(self, t0, x0, *, delayed: bool) -> ClosedLoopState:
         reference_state = self.reference.init(t0)
         observer_state = None
         if self.observer is not None:
@@ -311,7 +326,10 @@ class ClosedLoop(AbstractClosedLoop):
         reference, _, reads = self._controller_inputs(t0, y)
         controller_state = self.controller.init(t0, reads, reference)
         y = ClosedLoopState(x0, reference_state, controller_state, observer_state, None)
-        actuator_state = self.actuator.init(t0, self._flight(t0, y).command)
+        command = self._flight(t0, y).command
+        if delayed:
+            command = jtu.tree_map(jnp.zeros_like, command)
+        actuator_state = self.actuator.init(t0, command)
         return ClosedLoopState(
             x0, reference_state, controller_state, observer_state, actuator_state
         )

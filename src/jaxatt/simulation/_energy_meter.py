@@ -18,15 +18,21 @@ class EnergyMeter(AbstractActuator):
     r"""Apply `inner` and integrate $E(t) = \int_{t_0}^{t}\|u(\tau)\|_2^2\,d\tau$ of the applied
     control as part of the closed-loop state (signal `"energy"`).
 
-    With a zero-order hold the control is constant over each step, so a Runge-Kutta solver
-    integrates $E$ exactly ($h\sum_k\|u_k\|^2$), whatever the save interval: use it where the
-    trajectory is saved sparsely (e.g. controllers with long memories) or the control
-    chatters between saves, where a trapezoid rule on the saved `u` would be wrong.
+    With a zero-order hold and a stateless `inner` (ideal, saturations) the applied control is
+    constant over each step, so a Runge-Kutta solver integrates $E$ exactly
+    ($h\sum_k\|u_k\|^2$), whatever the save interval: use it where the trajectory is saved
+    sparsely (e.g. controllers with long memories) or the control chatters between saves,
+    where a trapezoid rule on the saved `u` would be wrong.
     """
 
     inner: AbstractActuator
 
     def __init__(self, inner: AbstractActuator | None = None):
+        if inner is not None and not isinstance(inner, AbstractActuator):
+            raise ValueError(
+                f"EnergyMeter: `inner` must be an actuator model (e.g. Saturation(limit)) or "
+                f"None, got {type(inner).__name__}."
+            )
         self.inner = Ideal() if inner is None else inner
 
     def init(self, t0, command) -> EnergyMeterState:

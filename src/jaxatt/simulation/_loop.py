@@ -145,7 +145,9 @@ def _run(closed_loop, x0, sim, stream):
     def time(i) -> Array:
         return jnp.asarray(t0 + jnp.asarray(i) * dt, dtype=dtype)
 
-    y0 = closed_loop.init(time(0), x0)
+    # Under a delay the actuator receives zeros over the first period: a stateful one (a
+    # lag) starts from that command, not from the first computed one, which reaches it at t_1.
+    y0 = (closed_loop.init_delayed if sps and delay else closed_loop.init)(time(0), x0)
     held0 = pending0 = None
     if sps:
         held0 = closed_loop.hold(time(0), y0)

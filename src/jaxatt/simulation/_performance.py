@@ -13,6 +13,7 @@ import numbers
 
 import equinox as eqx
 import jax
+import numpy as np
 
 from ._scalarize import Limits
 
@@ -88,7 +89,8 @@ class Performance(eqx.Module):
     vector_width: int | None = eqx.field(default=None, static=True)
 
     def __check_init__(self):
-        if self.scalarize not in (None, True, False):
+        # `1 in (True, False)` holds: without the type check 1, 0 and 1.0 passed.
+        if not (self.scalarize is None or isinstance(self.scalarize, (bool, np.bool_))):
             raise ValueError(
                 f"Performance: `scalarize` must be True, False or None, got {self.scalarize!r}."
             )

@@ -8,6 +8,25 @@ import equinox as eqx
 from .._validation import check_flag, is_real_scalar
 
 
+def whole_steps(span: float, dt: float, magnitude: float = 0.0) -> int | None:
+    """`span / dt` as a whole number of steps, or `None` where it is not one.
+
+    The ratio of two floats carries rounding: a relative 1e-9 is forgiven (e.g. `0.3 / 0.1` is
+    2.9999999999999996), and so is the rounding of the inputs themselves (a few units in the
+    last place of `span`, or of `magnitude`, the largest time `span` was computed from), but
+    never more than 1e-3 of a step otherwise. Without that cap, from 5e8 steps on
+    a relative 1e-9 exceeded half a step and every horizon was accepted, silently rounded to
+    the nearest whole step.
+    """
+    ratio = span / dt
+    steps = round(ratio)
+    rounding = 4 * math.ulp(max(abs(span), magnitude)) / dt
+    tolerance = max(min(1e-9 * max(1.0, ratio), 1e-3), rounding)
+    if steps < 1 or abs(ratio - steps) > tolerance:
+        return None
+    return steps
+
+
 class AbstractSampling(eqx.Module):
     """Continuous evaluation or a zero-order hold; chosen by type (structure, not a number)."""
 
@@ -46,10 +65,13 @@ class ZeroOrderHold(AbstractSampling):
     states thus advance by forward Euler at the controller rate, as on a flight computer).
 
     **Arguments:**
-    - `period`: $T > 0$ [s], a whole multiple of the integration step `dt`. Static: changing
-      it recompiles, like changing `dt`.
+    - `period`: $T > 0$ [s], a whole multiple of the integration step `dt` (the horizon need
+      not be a multiple of $T$: the last hold ends at `t1`; a period longer than the horizon
+      holds the command computed at `t0` throughout). Static: changing it recompiles, like
+      changing `dt`.
     - `delay`: apply each command one period late: the command computed at $t_k$ acts over
-      $[t_{k+1}, t_{k+2})$, and over the first period the actuator receives zeros. This is
+      $[t_{k+1}, t_{k+2})$, and over the first period the actuator receives zeros (a
+      stateful actuator, e.g. a [`FirstOrderLag`][], starts from that zero command). This is
       the timing of Basilisk's examples, where the flight software reads the sensors at
       $t_k$ and its command message reaches the actuator at the next task update. Default
       False (the command acts at once).
@@ -72,9 +94,8 @@ class ZeroOrderHold(AbstractSampling):
         return self.delayed
 
     def steps_per_sample(self, dt: float) -> int:
-        ratio = self.period / dt
-        steps = round(ratio)
-        if steps < 1 or abs(ratio - steps) > 1e-9 * max(1.0, ratio):
+        steps = whole_steps(self.period, dt)
+        if steps is None:
             raise ValueError(
                 "ZeroOrderHold: `period` must be a whole multiple of `dt`, got "
                 f"period={self.period}, dt={dt}."

@@ -11,9 +11,10 @@ import numbers
 import diffrax as dfx
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 
 from ._performance import Performance
-from ._sampling import AbstractSampling, Continuous
+from ._sampling import AbstractSampling, Continuous, whole_steps
 from ._solvers import RK4, AbstractFixedStepSolver, as_fixed_step_solver
 
 
@@ -46,7 +47,8 @@ class Simulation(eqx.Module):
     - `solver`: [`RK4`][]`()` (default), [`Euler`][]`()`, or any diffrax solver (used at a
       fixed step).
     - `save_every`: save every this many steps (must divide the step count); the first save
-      is at `t0`, the last at `t1`.
+      is at `t0`, the last at `t1` (the save times are $t_0 + k\,dt$ in the state's dtype,
+      so the last may be `t1` rounded by an ulp: `0.0 + 3 * 0.1` is 0.30000000000000004).
     - `checkpoint`: how reverse-mode autodiff stores the loop (no effect without `grad`):
       `True` rematerializes each save interval (the loop state is stored once per save, the
       steps inside an interval are recomputed); `"recursive"` runs the save intervals through
@@ -100,12 +102,12 @@ class Simulation(eqx.Module):
             raise ValueError(
                 f"{where}: `t1` must be greater than `t0`, got t0={self.t0}, t1={self.t1}."
             )
-        ratio = (self.t1 - self.t0) / self.dt
-        n_steps = round(ratio)
-        if n_steps < 1 or abs(ratio - n_steps) > 1e-9 * max(1.0, ratio):
+        span = self.t1 - self.t0
+        n_steps = whole_steps(span, self.dt, max(abs(self.t0), abs(self.t1)))
+        if n_steps is None:
             raise ValueError(
                 f"{where}: `t1 - t0` must be a whole multiple of `dt`, got "
-                f"t0={self.t0}, t1={self.t1}, dt={self.dt} ({ratio:.6g} steps)."
+                f"t0={self.t0}, t1={self.t1}, dt={self.dt} ({span / self.dt:.12g} steps)."
             )
         self.n_steps = n_steps
         self.save_every = _check_positive_int(where, "save_every", save_every)
@@ -122,7 +124,12 @@ class Simulation(eqx.Module):
         self.sampling = sampling
         self.steps_per_sample = sampling.steps_per_sample(self.dt)
         self.solver = as_fixed_step_solver(solver, where)
-        if checkpoint not in (True, False, "recursive"):
+        # `1 in (True, False)` holds: without the type check 1, 0 and 1.0 passed as flags.
+        if not (
+            isinstance(checkpoint, (bool, np.bool_))
+            or isinstance(checkpoint, str)
+            and checkpoint == "recursive"
+        ):
             raise ValueError(
                 f"{where}: `checkpoint` must be True, False or 'recursive', got {checkpoint!r}."
             )

@@ -6,7 +6,7 @@ import jax.tree_util as jtu
 import numpy as np
 from jaxtyping import PyTree
 
-from .._validation import is_traced
+from .._validation import check_flag, is_traced
 from ._closed_loop import AbstractClosedLoop
 from ._compiled import compiled
 from ._loop import integrate
@@ -46,6 +46,9 @@ def raise_on_failure(traj: Trajectory) -> Trajectory:
         index = np.unravel_index(int(np.argmax(codes != 0)), codes.shape) if codes.ndim else ()
         failure_time = float(np.asarray(traj.failure_time)[index])
         detail = f" (sample {index[0] if len(index) == 1 else index})" if codes.ndim else ""
+        if failure_time == float(np.asarray(traj.ts).reshape(-1)[0]):
+            # The status message speaks of a completed step; this one failed before any.
+            detail += " It was detected on the initial state, at t0, before any step."
         raise SimulationFailed(Status(int(codes[index])), failure_time, detail)
     return traj
 
@@ -79,7 +82,8 @@ def simulate(
       `ZeroOrderHold(period, delay=False)`.
     - `solver`: `RK4()` (default), `Euler()`, or any diffrax solver (used at a fixed step).
     - `save_every`: save every this many steps (must divide the step count); the first save
-      is at `t0`, the last at `t1`.
+      is at `t0`, the last at `t1` (the save times are $t_0 + k\,dt$ in the state's dtype,
+      so the last may be `t1` rounded by an ulp: `0.0 + 3 * 0.1` is 0.30000000000000004).
     - `checkpoint`: rematerialize each save interval in reverse-mode autodiff, so gradient
       memory grows with the number of saves rather than of steps; `"recursive"` runs
       equinox's checkpointed scan (online treeverse), which stores at most `checkpoints` loop
@@ -103,6 +107,8 @@ def simulate(
     The compiled program holds no host callback; failures are raised here, on the host.
     """
     check_closed_loop("simulate", closed_loop)
+    # `bool(throw)` would read throw="False" as True and throw=None as False.
+    throw = check_flag("simulate", "throw", throw)
     sim = Simulation(
         t0,
         t1,

@@ -17,6 +17,12 @@ import jax.tree_util as jtu
 from jaxtyping import Array, PyTree
 
 
+try:  # the sentinel of a root finder whose tolerances come from `diffeqsolve`'s controller
+    from diffrax._root_finder import use_stepsize_tol as _use_stepsize_tol
+except ImportError:  # pragma: no cover (another diffrax layout: that check is skipped)
+    _use_stepsize_tol = None
+
+
 VectorField = Callable[[Any, PyTree[Array], Any], PyTree[Array]]
 
 
@@ -93,7 +99,14 @@ class RK4(AbstractFixedStepSolver):
 
 
 class DiffraxSolver(AbstractFixedStepSolver):
-    """Any `diffrax.AbstractSolver` (e.g. `diffrax.Tsit5()`, `diffrax.Heun()`) at a fixed step.
+    """Any diffrax ODE solver (e.g. `diffrax.Tsit5()`, `diffrax.Heun()`) at a fixed step.
+
+    An adaptive solver's error estimate is not used: every step has the size `dt`. An
+    implicit solver (`diffrax.Kvaerno5()`, `diffrax.ImplicitEuler()`) needs a root finder
+    with explicit tolerances, e.g. `root_finder=optimistix.Chord(rtol=1e-8, atol=1e-8)`
+    (its default takes them from an adaptive step-size controller, which is refused here).
+    Solvers of several terms (IMEX, SDE, partitioned: `KenCarp3`, `EulerHeun`,
+    `SemiImplicitEuler`) are refused: a closed loop is one ODE term.
 
     Every step is flagged as following a jump (`made_jump=True`), because the state may be
     changed between steps (the discrete updates: MRP shadow switch, quaternion
@@ -109,6 +122,27 @@ class DiffraxSolver(AbstractFixedStepSolver):
         if not isinstance(solver, dfx.AbstractSolver):
             raise ValueError(
                 f"DiffraxSolver: `solver` must be a diffrax solver, got {type(solver).__name__}."
+            )
+        name = type(solver).__name__
+        structure = solver.term_structure
+        if not (isinstance(structure, type) and issubclass(dfx.ODETerm, structure)):
+            # e.g. KenCarp3 (IMEX), SemiImplicitEuler (two terms), EulerHeun (an SDE): they
+            # failed inside diffrax with an AssertionError or an unpacking error.
+            raise ValueError(
+                f"DiffraxSolver: {name} integrates several terms (an IMEX, SDE or partitioned "
+                f"solver), but a closed loop is one ODE term; use an ODE solver (e.g. "
+                f"diffrax.Tsit5(), diffrax.Kvaerno5(root_finder=...)) or RK4()."
+            )
+        root_finder = getattr(solver, "root_finder", None)
+        if _use_stepsize_tol is not None and any(
+            getattr(root_finder, tol, None) is _use_stepsize_tol for tol in ("rtol", "atol")
+        ):
+            # diffrax fills these tolerances from `diffeqsolve`'s PIDController; at a fixed
+            # step there is none, and the step failed with "Type of `other` not understood".
+            raise ValueError(
+                f"DiffraxSolver: {name}'s root finder takes its tolerances from an adaptive "
+                f"step-size controller, which a fixed-step run does not have; give it explicit "
+                f"ones, e.g. diffrax.{name}(root_finder=optimistix.Chord(rtol=1e-8, atol=1e-8))."
             )
         self.solver = solver
 

@@ -16,8 +16,9 @@ class Status(enum.IntEnum):
     """Outcome of one simulated closed loop (`Trajectory.status`).
 
     The first failure of a run is kept (a later one does not overwrite it), together with the
-    time at which it was detected (`Trajectory.failure_time`). Every condition is checked after
-    every completed integration step, not only at the saved times.
+    time at which it was detected (`Trajectory.failure_time`). Every condition is checked on the
+    initial state (a failure there is timed `t0`) and after every completed integration step
+    (timed at the step's end), not only at the saved times.
     """
 
     successful = 0
@@ -35,7 +36,8 @@ _MESSAGES = {
     Status.successful: "The simulation succeeded.",
     Status.nonfinite_state: (
         "The closed-loop state became NaN or infinite: the loop diverged or the step `dt` is too "
-        "large for its fastest dynamics. Reduce `dt`, or check gains and initial conditions."
+        "large for its fastest dynamics. Reduce `dt`, or check gains and initial conditions "
+        "(and sampled or tuned actuator limits: one that is not positive makes the control NaN)."
     ),
     Status.constraint_violated: (
         "The controller left its admissible set (its `admissible` check failed after a "

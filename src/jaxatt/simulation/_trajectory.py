@@ -34,8 +34,10 @@ class Trajectory(eqx.Module):
     - `signals`: recorded signals by name (see [`ClosedLoop`][]'s signals); `"u"` is the
       applied control.
     - `status`: a [`Status`][] code as an integer array (per sample when batched).
-    - `failure_time`: the time [s] at which the first failure was detected (`inf` when the run
-      succeeded).
+    - `failure_time`: the time [s] at which the first failure was detected: `t0` when the
+      initial state already fails, otherwise the end of the first step whose state fails (a
+      point of the integration grid, not necessarily a save time); `inf` when the run
+      succeeded.
     - `events`: named discrete events (e.g. `"shadow_switch"`) as [`EventRecord`][]s.
 
     With `simulate(..., throw=True)` (the default) a failure raises instead.
