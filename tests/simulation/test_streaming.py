@@ -139,5 +139,8 @@ def test_saving_every_step_equals_saving_every_other_step(chen_loop, solver, sca
         np.testing.assert_allclose(a[:, ::2], b, rtol=1e-12, atol=1e-15)
     for name in other.signals:
         a, b = np.asarray(every.signals[name])[:, ::2], np.asarray(other.signals[name])
-        scale = np.max(np.abs(b))
+        # A signal computed from O(1) states carries their absolute rounding (~eps) however
+        # small it is: quat_norm_error = |q| - 1 is ~1e-12 and differs by 2e-16 between the
+        # two programs, so the absolute tolerance is relative to max(scale, 1).
+        scale = max(np.max(np.abs(b)), 1.0)
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-13 * scale, err_msg=name)

@@ -33,11 +33,12 @@ def _check_matches_command(where: str, name: str, value: ArrayLike, command) -> 
         )
 
 
-def _nan_unless_positive(limit: Array) -> Array:
+def _nan_unless_positive(limit: Float[ArrayLike, "*m"]) -> Float[Array, "*m"]:
     """`limit` where it is positive, NaN elsewhere. The constructors refuse a non-positive
     limit, but one reached by tracing (a batch of sampled limits, a tuning step) cannot be
     refused: a negative one would turn the command around (the run would look plausible),
     so it makes the applied control NaN, which the loop reports as a failed sample."""
+    limit = jnp.asarray(limit)
     return jnp.where(limit > 0, limit, jnp.nan)
 
 
