@@ -209,6 +209,14 @@ def check_flag(where: str, name: str, value) -> bool:
     return bool(value)
 
 
+def check_instance(where: str, name: str, value, kind: type | tuple[type, ...], what: str):
+    """`value` if it is an instance of `kind`, else a `ValueError` naming the argument, what it
+    must be (`what`, e.g. "a jaxatt.plants.Proximity") and the type it got."""
+    if not isinstance(value, kind):
+        raise ValueError(f"{where}: `{name}` must be {what}, got {type(value).__name__}.")
+    return value
+
+
 def check_positive_int(where: str, name: str, value, minimum: int = 1) -> int:
     """A static integer at least `minimum` (a count, a size, an index): a Python or NumPy
     integer, not a bool (`True` would silently read as 1) nor a float (`2.5` would be

@@ -11,6 +11,7 @@ both terms; it is inconsistent with (4)-(5).
 
 from typing import ClassVar
 
+from .._validation import check_instance
 from ..networks import LinkState, SampledLink, TwoLayerNetwork
 from ..plants._agents import AgentsState
 from ._base import AbstractController
@@ -35,15 +36,10 @@ class TwoLayerConsensus(AbstractController):
 
     def __init__(self, network: TwoLayerNetwork, link: SampledLink):
         where = "TwoLayerConsensus"
-        if not isinstance(network, TwoLayerNetwork):
-            raise ValueError(
-                f"{where}: `network` must be a jaxatt.networks.TwoLayerNetwork, got "
-                f"{type(network).__name__}."
-            )
-        if not isinstance(link, SampledLink):
-            raise ValueError(
-                f"{where}: `link` must be a jaxatt.networks.SampledLink, got {type(link).__name__}."
-            )
+        check_instance(
+            where, "network", network, TwoLayerNetwork, "a jaxatt.networks.TwoLayerNetwork"
+        )
+        check_instance(where, "link", link, SampledLink, "a jaxatt.networks.SampledLink")
         self.network = network
         self.link = link
 

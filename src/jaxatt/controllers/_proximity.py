@@ -4,6 +4,7 @@ from typing import ClassVar
 
 import jax.numpy as jnp
 
+from .._validation import check_instance
 from ..plants import Proximity, ProximityState, QuaternionState
 from ..references import PoseReference
 from ._base import AbstractController
@@ -32,13 +33,15 @@ class ProximitySlidingMode(AbstractController):
         self, model: Proximity, translation: TranslationalSlidingMode, attitude: AbstractController
     ):
         where = "ProximitySlidingMode"
-        for name, value, kind, what in (
-            ("model", model, Proximity, "a jaxatt.plants.Proximity"),
-            ("translation", translation, TranslationalSlidingMode, "a TranslationalSlidingMode"),
-            ("attitude", attitude, AbstractController, "an attitude controller"),
-        ):
-            if not isinstance(value, kind):
-                raise ValueError(f"{where}: `{name}` must be {what}, got {type(value).__name__}.")
+        check_instance(where, "model", model, Proximity, "a jaxatt.plants.Proximity")
+        check_instance(
+            where,
+            "translation",
+            translation,
+            TranslationalSlidingMode,
+            "a TranslationalSlidingMode",
+        )
+        check_instance(where, "attitude", attitude, AbstractController, "an attitude controller")
         if not issubclass(QuaternionState, attitude.measurement_type):
             raise ValueError(
                 f"{where}: `attitude` ({type(attitude).__name__}) reads "

@@ -17,7 +17,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .._validation import check_in_open_interval, check_positive, check_scalar
+from .._validation import check_in_open_interval, check_instance, check_positive, check_scalar
 from ..numerics import FractionalMemory, memory_derivative, memory_init, memory_push
 from ..plants import AbstractRelativeOrbit, RelativeOrbitState
 from ..reaching import AbstractReachingLaw
@@ -27,16 +27,11 @@ from ._base import AbstractController
 
 
 def _check_parts(where: str, model, reaching_law) -> None:
-    if not isinstance(model, AbstractRelativeOrbit):
-        raise ValueError(
-            f"{where}: `model` must be a relative-orbit plant (RelativeOrbit, "
-            f"TschaunerHempel, ClohessyWiltshire), got {type(model).__name__}."
-        )
-    if not isinstance(reaching_law, AbstractReachingLaw):
-        raise ValueError(
-            f"{where}: `reaching_law` must be a jaxatt.reaching law, got "
-            f"{type(reaching_law).__name__}."
-        )
+    plants = "a relative-orbit plant (RelativeOrbit, TschaunerHempel, ClohessyWiltshire)"
+    check_instance(where, "model", model, AbstractRelativeOrbit, plants)
+    check_instance(
+        where, "reaching_law", reaching_law, AbstractReachingLaw, "a jaxatt.reaching law"
+    )
 
 
 class TranslationalSlidingMode(AbstractController):
@@ -61,11 +56,13 @@ class TranslationalSlidingMode(AbstractController):
 
     def __init__(self, model, surface, reaching_law):
         _check_parts("TranslationalSlidingMode", model, reaching_law)
-        if not isinstance(surface, (PDSurface, TerminalSurface)):
-            raise ValueError(
-                "TranslationalSlidingMode: `surface` must be a PDSurface or TerminalSurface, "
-                f"got {type(surface).__name__}."
-            )
+        check_instance(
+            "TranslationalSlidingMode",
+            "surface",
+            surface,
+            (PDSurface, TerminalSurface),
+            "a PDSurface or TerminalSurface",
+        )
         self.model, self.surface, self.reaching_law = model, surface, reaching_law
 
     def errors(self, y: RelativeOrbitState, r: TranslationReference):

@@ -40,16 +40,21 @@ _SERIES = tuple((-1) ** n * (n - 1) / float(math.factorial(n)) for n in range(2,
 _SERIES_RADIUS = 0.1
 
 
-def _h(x: Array) -> Array:
-    r"""$h(x) = (1 - e^{-x}(1 + x))/x^2$, by its series for $|x| < 0.1$ (error < 1e-16)."""
+def _series_near_zero(x: Array, coefficients: tuple[float, ...], direct) -> Array:
+    """`direct(x)`, by the power series with `coefficients` (Horner) for $|x| < 0.1$, where
+    the direct form loses digits to cancellation or divides 0 by 0 (double `where`: finite
+    gradients at 0). Real or complex `x`."""
     small = jnp.abs(x) < _SERIES_RADIUS
     xs = jnp.where(small, x, 0.0)
     series = jnp.zeros_like(x)
-    for coefficient in reversed(_SERIES):
+    for coefficient in reversed(coefficients):
         series = series * xs + coefficient
-    xl = jnp.where(small, 1.0, x)
-    direct = (-jnp.expm1(-xl) - xl * jnp.exp(-xl)) / xl**2
-    return jnp.where(small, series, direct)
+    return jnp.where(small, series, direct(jnp.where(small, 1.0, x)))
+
+
+def _h(x: Array) -> Array:
+    r"""$h(x) = (1 - e^{-x}(1 + x))/x^2$, by its series for $|x| < 0.1$ (error < 1e-16)."""
+    return _series_near_zero(x, _SERIES, lambda x: (-jnp.expm1(-x) - x * jnp.exp(-x)) / x**2)
 
 
 _EXPM1_SERIES = tuple(1 / float(math.factorial(n + 1)) for n in range(13))
@@ -59,13 +64,7 @@ _EXPM1_SERIES = tuple(1 / float(math.factorial(n + 1)) for n in range(13))
 def _expm1_ratio(w: Array) -> Array:
     r"""$(e^w - 1)/w$ for complex $w$, 1 at $w = 0$ (its series for $|w| < 0.1$, error
     < 1e-16; the direct form loses digits to cancellation there)."""
-    small = jnp.abs(w) < _SERIES_RADIUS
-    ws = jnp.where(small, w, 0.0)
-    series = jnp.zeros_like(w)
-    for coefficient in reversed(_EXPM1_SERIES):
-        series = series * ws + coefficient
-    wl = jnp.where(small, 1.0, w)
-    return jnp.where(small, series, (jnp.exp(wl) - 1) / wl)
+    return _series_near_zero(w, _EXPM1_SERIES, lambda w: (jnp.exp(w) - 1) / w)
 
 
 def _g(x: Array) -> Array:
