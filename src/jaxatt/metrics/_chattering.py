@@ -38,6 +38,15 @@ def in_window(t_from: Array, t_to: Array, start: Array, end: Array) -> Array:
     return (t_from >= start - slack_start) & (t_to <= end + slack_end)
 
 
+def holds_save_interval(ts, start, end) -> bool:
+    """Whether the window `[start, end]` [s] holds at least one interval between two of the
+    save times `ts` (host side, before compiling): else the chattering over it is 0 whatever
+    the control does (a window past the horizon, or between two saves)."""
+    ts = jnp.asarray(ts, dtype=jnp.result_type(float))
+    bounds = (jnp.asarray(b, ts.dtype) for b in (start, end))
+    return bool(jnp.any(in_window(ts[:-1], ts[1:], *bounds)))
+
+
 def window_bound(where: str, name: str, value: RealScalarLike | None, default: float) -> Array:
     """A window bound [s]: a scalar, not NaN when concrete; `default` for `None`."""
     if value is None:

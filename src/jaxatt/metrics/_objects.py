@@ -39,7 +39,7 @@ from jaxtyping import Array, Float, PyTree
 from .._custom_types import RealScalarLike
 from .._validation import check_less_than, check_positive_scalar
 from ..numerics import amax, maximum, safe_norm
-from ._chattering import chattering, in_window, window_bound
+from ._chattering import chattering, holds_save_interval, in_window, window_bound
 from ._effort import control_effort
 from ._settling import convergence_time, decay_extrapolation, settling_time, time_outside
 
@@ -526,8 +526,8 @@ class Chattering(AbstractMetric):
     def check_record(self, where, name, ts) -> None:
         """The window must hold at least one interval between two save times: else the value
         is 0 whatever the control does (a window past the horizon, or between two saves)."""
-        ts = jnp.asarray(ts, dtype=jnp.result_type(float))
-        if not bool(jnp.any(in_window(ts[:-1], ts[1:], self.start, self.end))):
+        if not holds_save_interval(ts, self.start, self.end):
+            ts = jnp.asarray(ts)
             raise ValueError(
                 f"{where}: the window [{float(self.start)}, {float(self.end)}] s of the "
                 f"Chattering metric {name!r} holds no interval between two save times of the "

@@ -145,7 +145,7 @@ def check_metric_records(where: str, metrics: Metrics, sim: Simulation) -> None:
     compiling."""
     if not isinstance(metrics, Mapping):
         return
-    saves = np.linspace(sim.t0, sim.t1, sim.n_steps // sim.save_every + 1)
+    saves = sim.save_times()
     for name, metric in metrics.items():
         metric.check_record(where, str(name), saves)
 

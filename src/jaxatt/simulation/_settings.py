@@ -170,6 +170,11 @@ class Simulation(eqx.Module):
         """Number of saved samples, `t0` included."""
         return self.n_steps // self.save_every + 1
 
+    def save_times(self) -> np.ndarray:
+        """The save times [s] as a NumPy float64 array (host side, before compiling):
+        `t0 + k save_every dt`, k = 0 .. n_saves - 1, as the loop computes them."""
+        return self.t0 + np.arange(self.n_saves) * (self.save_every * self.dt)
+
     def check_clock(self, dtype) -> None:
         r"""Refuse a clock that the loop's precision cannot resolve.
 

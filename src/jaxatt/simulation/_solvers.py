@@ -8,19 +8,22 @@ shapes for `vmap`, predictable cost and clean reverse-mode gradients. `RK4` (the
 """
 
 import abc
+import numbers
 from collections.abc import Callable
 from typing import Any, ClassVar
 
 import diffrax as dfx
 import equinox as eqx
+import jax
 import jax.tree_util as jtu
+import numpy as np
 from jaxtyping import Array, PyTree
 
 
-try:  # the sentinel of a root finder whose tolerances come from `diffeqsolve`'s controller
-    from diffrax._root_finder import use_stepsize_tol as _use_stepsize_tol
-except ImportError:  # pragma: no cover (another diffrax layout: that check is skipped)
-    _use_stepsize_tol = None
+def _is_tolerance(value) -> bool:
+    """A root finder's tolerance given as a number or an array (not diffrax's placeholder
+    that `diffeqsolve` fills from an adaptive step-size controller)."""
+    return isinstance(value, (numbers.Real, np.ndarray, jax.Array))
 
 
 VectorField = Callable[[Any, PyTree[Array], Any], PyTree[Array]]
@@ -134,8 +137,8 @@ class DiffraxSolver(AbstractFixedStepSolver):
                 f"diffrax.Tsit5(), diffrax.Kvaerno5(root_finder=...)) or RK4()."
             )
         root_finder = getattr(solver, "root_finder", None)
-        if _use_stepsize_tol is not None and any(
-            getattr(root_finder, tol, None) is _use_stepsize_tol for tol in ("rtol", "atol")
+        if root_finder is not None and not all(
+            _is_tolerance(getattr(root_finder, tol, 0.0)) for tol in ("rtol", "atol")
         ):
             # diffrax fills these tolerances from `diffeqsolve`'s PIDController; at a fixed
             # step there is none, and the step failed with "Type of `other` not understood".

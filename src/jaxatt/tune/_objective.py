@@ -30,7 +30,6 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.tree_util as jtu
-import numpy as np
 from jaxtyping import Array, Float, PyTree
 
 from .._validation import (
@@ -50,7 +49,7 @@ from ..metrics import (
     Peak,
     SettlingTime,
 )
-from ..metrics._chattering import in_window
+from ..metrics._chattering import holds_save_interval
 from ..montecarlo._batch import check_metric_records, run_batch, streamable
 from ..numerics import amax
 from ..simulation import (
@@ -456,15 +455,10 @@ def _chattering_window(
     silently nothing). By default the last half of the run, or the whole run when that half
     holds no save interval (a run saved only at `t0` and `t1`)."""
     t0, t1 = simulation.t0, simulation.t1
-    saves = np.linspace(t0, t1, simulation.n_steps // simulation.save_every + 1)
-
-    def holds_an_interval(start, end) -> bool:
-        bounds = (saves[:-1], saves[1:], start, end)
-        return bool(jnp.any(in_window(*(jnp.asarray(b, dtype=float) for b in bounds))))
-
+    saves = simulation.save_times()
     if window is None:
         start = 0.5 * (t0 + t1)
-        return (start if holds_an_interval(start, t1) else t0), t1
+        return (start if holds_save_interval(saves, start, t1) else t0), t1
     try:
         start, end = (float(v) for v in window)
     except (TypeError, ValueError):
@@ -477,7 +471,7 @@ def _chattering_window(
             f"{where}: `chattering_window` must have start < end and overlap the run "
             f"[t0, t1] = [{t0}, {t1}] s, got {window!r}."
         )
-    if not holds_an_interval(start, end):
+    if not holds_save_interval(saves, start, end):
         raise ValueError(
             f"{where}: `chattering_window` {window!r} holds no save interval of the run (saved "
             f"every {saves[1] - saves[0]:g} s from t0 = {t0} s), so the chattering would be 0 "
