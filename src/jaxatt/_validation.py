@@ -119,7 +119,7 @@ def check(
     - `name`: the argument's name as the user wrote it.
     - `value`: the value; converted to a strongly typed floating JAX array.
     - `predicate`: `(xp, x) -> booleans` that must all hold (see [`Predicate`][]).
-    - `rule`: the rule in words, e.g. "must be positive".
+    - `rule`: the rule in words, e.g. "must be positive and finite".
 
     **Returns:** the value as a floating JAX array.
     """
@@ -143,12 +143,18 @@ def check_finite(where: str, name: str, value: ArrayLike) -> Array:
 
 
 def check_positive(where: str, name: str, value: ArrayLike) -> Array:
-    return check(where, name, value, lambda xp, x: xp.isfinite(x) & (x > 0), "must be positive")
+    return check(
+        where, name, value, lambda xp, x: xp.isfinite(x) & (x > 0), "must be positive and finite"
+    )
 
 
 def check_nonnegative(where: str, name: str, value: ArrayLike) -> Array:
     return check(
-        where, name, value, lambda xp, x: xp.isfinite(x) & (x >= 0), "must be non-negative"
+        where,
+        name,
+        value,
+        lambda xp, x: xp.isfinite(x) & (x >= 0),
+        "must be non-negative and finite",
     )
 
 
@@ -166,7 +172,7 @@ def check_greater_than(where: str, name: str, value: ArrayLike, low: float) -> A
         name,
         value,
         lambda xp, x: xp.isfinite(x) & (x > low),
-        f"must be greater than {low}",
+        f"must be greater than {low} and finite",
     )
 
 

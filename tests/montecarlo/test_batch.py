@@ -358,6 +358,19 @@ def test_a_boolean_time_limit_is_refused(no_jaxtyping):
         result.summary(time_limit=True)
 
 
+def test_an_empty_result_is_refused_by_name():
+    # Regression (review): a result of no samples raised NumPy's "attempt to get argmax of an
+    # empty sequence" from summary, table and to_dict.
+    empty = mc.MonteCarloResult(
+        metrics={"settling_time": jnp.zeros(0)},
+        status=jnp.zeros(0, jnp.int32),
+        failure_time=jnp.zeros(0),
+    )
+    for report in (empty.summary, empty.table, empty.to_dict):
+        with pytest.raises(ValueError, match="MonteCarloResult.summary: the result has no"):
+            report()
+
+
 def test_a_margins_worst_case_is_its_smallest_value_and_time_limits_reach_every_time():
     # Regression (review): "worst" was the largest value for every metric, so the summary of a
     # MinimumMargin reported the safest run as the worst; and to_dict/table applied

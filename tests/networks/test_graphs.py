@@ -76,6 +76,13 @@ def test_laplacian_checks_name_the_argument_and_the_rule():
         laplacian_from_adjacency(-np.ones((2, 2)))
 
 
+@pytest.mark.parametrize("n", [True, 2.0, 0])
+def test_a_node_count_that_is_not_a_positive_integer_is_refused(n, no_jaxtyping):
+    # True and 2.0 were read as networks of 1 and 2 nodes.
+    with pytest.raises(ValueError, match="laplacian_from_edges: `n` must be a positive integer"):
+        laplacian_from_edges(n, [])
+
+
 def test_network_checks_sizes_and_laplacians():
     with pytest.raises(ValueError, match="`intra_laplacian`.*zero row sums"):
         TwoLayerNetwork(L1_PRINTED, L2, RHO1, RHO2)

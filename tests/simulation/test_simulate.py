@@ -406,6 +406,12 @@ def test_non_unit_initial_quaternion_raises():
             "NormRobustTerm: `sigma` must be a scalar",
         ),
         (lambda: ZeroOrderHold(0.0), "`period` must be positive"),
+        # an infinite limit was refused as "must be positive, got limit=inf": the rule is finite
+        (lambda: Saturation(jnp.inf), "Saturation: `limit` must be positive and finite"),
+        (
+            lambda: NormSaturation(jnp.inf),
+            "NormSaturation: `max_norm` must be positive and finite",
+        ),
         # Regression: limits of more than one dimension failed inside the trace naming nothing.
         (
             lambda: Saturation(30.0 * jnp.ones((3, 3))),

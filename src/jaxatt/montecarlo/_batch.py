@@ -10,7 +10,6 @@ same values.
 """
 
 import inspect
-import numbers
 from collections.abc import Callable, Mapping
 
 import diffrax as dfx
@@ -23,7 +22,7 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from jaxtyping import Array, ArrayLike, PyTree
 
 from .._paths import parse_path, path_selector
-from .._validation import check_flag, check_tree_finite
+from .._validation import check_flag, check_positive_int, check_tree_finite
 from ..metrics import AbstractMetric
 from ..simulation import (
     RK4,
@@ -508,12 +507,6 @@ def _loop_filter(loop_axes: PyTree, closed_loop: AbstractClosedLoop) -> PyTree[b
         ) from None
 
 
-def _check_positive_int(name: str, value) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
-        raise ValueError(f"monte_carlo: `{name}` must be a positive integer, got {value!r}.")
-    return int(value)
-
-
 def _pad(x: Array, size: int) -> Array:
     """Pad the leading axis to `size` with copies of the first sample (a valid input)."""
     extra = size - x.shape[0]
@@ -637,7 +630,7 @@ def monte_carlo(
     check_metric_records(where, metrics, sim)
     keep_trajectories = check_flag(where, "keep_trajectories", keep_trajectories)
     if batch_size is not None:
-        batch_size = _check_positive_int("batch_size", batch_size)
+        batch_size = check_positive_int("monte_carlo", "batch_size", batch_size)
     x0s, n = check_batch_states(where, closed_loop, x0s)
     batched, loop = split_batched_fields(where, closed_loop, loop_axes, n)
     devices = jax.devices() if shard else []

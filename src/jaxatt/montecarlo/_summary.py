@@ -174,6 +174,12 @@ class MonteCarloResult(eqx.Module):
                 "MonteCarloResult.summary: `worst` must be 'largest', 'smallest' or None, "
                 f"got {worst!r}."
             )
+        if self.n == 0:
+            # No worst sample, no success rate: NumPy's argmax raised "empty sequence".
+            raise ValueError(
+                "MonteCarloResult.summary: the result has no samples (`status` has shape "
+                "(0,)); there is nothing to summarise."
+            )
         values = self._values(metric, component)
         ok = to_host(self.successful).astype(bool)
         finite = ok & np.isfinite(values)

@@ -18,7 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from .._validation import describe, is_traced
+from .._validation import check_positive_int, describe, is_traced
 from ._types import MatrixLike, as_float
 
 
@@ -59,9 +59,7 @@ def laplacian_from_edges(
     may be traced, so the Laplacian is differentiable in them.
     """
     where = "laplacian_from_edges"
-    if int(n) != n or n < 1:
-        raise ValueError(f"{where}: `n` must be a positive integer, got n={n!r}.")
-    n = int(n)
+    n = check_positive_int(where, "n", n)
     pairs = np.asarray(edges, dtype=int).reshape(-1, 2) if len(edges) else np.zeros((0, 2), int)
     if pairs.size and (pairs.min() < 0 or pairs.max() >= n):
         raise ValueError(f"{where}: `edges` must index nodes 0..{n - 1}, got {pairs.tolist()}.")

@@ -15,10 +15,13 @@ from .._validation import describe, is_traced
 
 
 _RULES: dict[str, tuple[Callable[[np.ndarray], np.ndarray], str]] = {
-    "a": (lambda x: np.isfinite(x) & (x > 0), "the semi-major axis `a` must be positive"),
+    "a": (
+        lambda x: np.isfinite(x) & (x > 0),
+        "the semi-major axis `a` must be positive and finite",
+    ),
     "e": (lambda x: (x >= 0) & (x < 1), "the eccentricity `e` must lie in [0, 1)"),
-    "mu": (lambda x: np.isfinite(x) & (x > 0), "`mu` must be positive"),
-    "n": (lambda x: np.isfinite(x) & (x > 0), "the mean motion `n` must be positive"),
+    "mu": (lambda x: np.isfinite(x) & (x > 0), "`mu` must be positive and finite"),
+    "n": (lambda x: np.isfinite(x) & (x > 0), "the mean motion `n` must be positive and finite"),
 }
 
 

@@ -22,6 +22,18 @@ def _common_shape(where: str, **arrays: Array) -> tuple[Array, ...]:
     return tuple(jnp.broadcast_to(a, shape) for a in arrays.values())
 
 
+def _split_infinity(t: RealScalarLike) -> tuple[Array, Array]:
+    r"""`(t == +inf, t with +inf replaced by 0)`. The envelopes evaluate their closed forms at the
+        finite copy and select the limit ($
+    ho_\infty$, $\dot
+    ho = 0$) at $t = \infty$: the closed
+        forms' gradients in the parameters there are $\infty \cdot 0$, NaN (e.g. $-t e^{-lpha t}$
+        in the exponential's rate), where the limit's are those of $
+    ho_\infty$."""
+    at_infinity = jnp.isposinf(t)
+    return at_infinity, jnp.where(at_infinity, 0.0, t)
+
+
 def _check_final_below_initial(where: str, initial: Array, final: Array) -> None:
     if is_traced(initial) or is_traced(final):
         return
@@ -68,11 +80,16 @@ class ExponentialPerformance(AbstractPerformance):
     def final(self):
         return self.final_value
 
+    def _decay(self, t: RealScalarLike) -> Float[Array, "*k"]:
+        r"""$e^{-\alpha t}$, and 0 at $t = \infty$ (see `_split_infinity`)."""
+        at_infinity, t = _split_infinity(t)
+        return jnp.where(at_infinity, 0.0, jnp.exp(-self.rate * t))
+
     def value(self, t: RealScalarLike) -> Float[Array, "*k"]:
-        return (self.initial_value - self.final_value) * jnp.exp(-self.rate * t) + self.final_value
+        return (self.initial_value - self.final_value) * self._decay(t) + self.final_value
 
     def derivative(self, t: RealScalarLike) -> Float[Array, "*k"]:
-        return -self.rate * (self.initial_value - self.final_value) * jnp.exp(-self.rate * t)
+        return -self.rate * (self.initial_value - self.final_value) * self._decay(t)
 
 
 class CothPerformance(AbstractPerformance):
@@ -106,7 +123,9 @@ class CothPerformance(AbstractPerformance):
         return self.final_value
 
     def value(self, t: RealScalarLike) -> Float[Array, "*k"]:
-        return 1.0 / jnp.tanh(self.l1 * t + self.l2) - 1.0 + self.final_value
+        at_infinity, t = _split_infinity(t)
+        excess = jnp.where(at_infinity, 0.0, 1.0 / jnp.tanh(self.l1 * t + self.l2) - 1.0)
+        return excess + self.final_value
 
     def derivative(self, t: RealScalarLike) -> Float[Array, "*k"]:
         r"""$\dot\rho = -l_1/\sinh^2 x = -4l_1e^{-2x}/(1 - e^{-2x})^2$, $x = l_1t + l_2 > 0$.
@@ -115,8 +134,11 @@ class CothPerformance(AbstractPerformance):
         derivatives of $\sinh^2 x$ were then $0 \cdot \infty$, NaN (in $t$, $l_1$, $l_2$), where
         the true ones underflow to 0.
         """
+        at_infinity, t = _split_infinity(t)
         minus_2x = -2 * (self.l1 * t + self.l2)
-        return -4 * self.l1 * jnp.exp(minus_2x) / jnp.expm1(minus_2x) ** 2
+        return jnp.where(
+            at_infinity, 0.0, -4 * self.l1 * jnp.exp(minus_2x) / jnp.expm1(minus_2x) ** 2
+        )
 
 
 class FiniteTimePerformance(AbstractPerformance):
@@ -180,8 +202,10 @@ class FiniteTimePerformance(AbstractPerformance):
         return (self.initial_value - self.final_value) ** (1 - a) / ((1 - a) * self.horizon)
 
     def _remaining(self, t) -> tuple[Array, Array]:
-        """$1 - t/T$ clipped at 0, and a copy that is 1 where it is 0 (a safe power base)."""
-        x = maximum(1.0 - t / self.horizon, 0.0)
+        r"""$1 - t/T$ clipped at 0, and a copy that is 1 where it is 0 (a safe power base); 0 at
+        $t = \infty$ with no gradient in $T$ (see `_split_infinity`)."""
+        at_infinity, t = _split_infinity(t)
+        x = jnp.where(at_infinity, 0.0, maximum(1.0 - t / self.horizon, 0.0))
         return x, jnp.where(x > 0, x, 1.0)
 
     def value(self, t: RealScalarLike) -> Float[Array, "*k"]:

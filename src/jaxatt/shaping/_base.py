@@ -7,7 +7,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
-from .._validation import check, check_positive, is_traced
+from .._validation import check, check_nonnegative, check_positive, is_traced
 
 
 def damped_period(frequency: Float[ArrayLike, "..."], damping: Float[ArrayLike, "..."]):
@@ -40,13 +40,7 @@ def check_evaluation_mode(where: str, frequency, damping) -> tuple[Array, Array]
     r"""A mode at which a residual vibration is evaluated: frequency >= 0 [rad/s] (0 gives the
     limit of a rigid mode) and damping ratio in [0, 1] (above 1 the damped frequency
     $\omega\sqrt{1 - \zeta^2}$ is imaginary and the formulas give NaN)."""
-    frequency = check(
-        where,
-        "frequency",
-        frequency,
-        lambda xp, w: xp.isfinite(w) & (w >= 0),
-        "must be non-negative",
-    )
+    frequency = check_nonnegative(where, "frequency", frequency)
     damping = check(
         where,
         "damping",

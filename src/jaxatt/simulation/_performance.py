@@ -15,6 +15,7 @@ import equinox as eqx
 import jax
 import numpy as np
 
+from .._validation import check_positive_int
 from ._scalarize import Limits
 
 
@@ -28,12 +29,6 @@ VECTOR_WIDTHS = (128, 256, 512)
 SCALARIZED_VECTOR_WIDTH = 512
 """With `Performance(vector_width=None)` (the default), the SIMD width [bits] XLA:CPU is asked
 to prefer for a scalarized loop."""
-
-
-def _check_size(name: str, value) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
-        raise ValueError(f"Performance: `{name}` must be a positive integer, got {value!r}.")
-    return int(value)
 
 
 class Performance(eqx.Module):
@@ -94,8 +89,8 @@ class Performance(eqx.Module):
             raise ValueError(
                 f"Performance: `scalarize` must be True, False or None, got {self.scalarize!r}."
             )
-        _check_size("max_scalarized_size", self.max_scalarized_size)
-        _check_size("max_unrolled_products", self.max_unrolled_products)
+        check_positive_int("Performance", "max_scalarized_size", self.max_scalarized_size)
+        check_positive_int("Performance", "max_unrolled_products", self.max_unrolled_products)
         width = self.vector_width
         if width is not None and (
             isinstance(width, bool)

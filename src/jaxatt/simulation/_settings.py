@@ -13,6 +13,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
+from .._validation import check_positive_int
 from ._performance import Performance
 from ._sampling import AbstractSampling, Continuous, whole_steps
 from ._solvers import RK4, AbstractFixedStepSolver, as_fixed_step_solver
@@ -28,12 +29,6 @@ def _check_time(where: str, name: str, value) -> float:
     if not math.isfinite(value):
         raise ValueError(f"{where}: `{name}` must be finite, got {name}={value}.")
     return value
-
-
-def _check_positive_int(where: str, name: str, value) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
-        raise ValueError(f"{where}: `{name}` must be a positive integer, got {value!r}.")
-    return int(value)
 
 
 class Simulation(eqx.Module):
@@ -110,7 +105,7 @@ class Simulation(eqx.Module):
                 f"t0={self.t0}, t1={self.t1}, dt={self.dt} ({span / self.dt:.12g} steps)."
             )
         self.n_steps = n_steps
-        self.save_every = _check_positive_int(where, "save_every", save_every)
+        self.save_every = check_positive_int(where, "save_every", save_every)
         if n_steps % self.save_every:
             raise ValueError(
                 f"{where}: `save_every` must divide the number of steps ({n_steps}), got "
@@ -140,7 +135,7 @@ class Simulation(eqx.Module):
                     f"{where}: `checkpoints` applies to checkpoint='recursive' only, got "
                     f"checkpoints={checkpoints!r} with checkpoint={checkpoint!r}."
                 )
-            checkpoints = _check_positive_int(where, "checkpoints", checkpoints)
+            checkpoints = check_positive_int(where, "checkpoints", checkpoints)
         self.checkpoints = checkpoints
         if performance is None:
             performance = Performance()

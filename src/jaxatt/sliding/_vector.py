@@ -6,13 +6,18 @@ $= \dot h$ in closed form. The fractional surface has a memory and its own inter
 """
 
 import math
-import numbers
 
 import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._validation import check_flag, check_gain_shape, check_in_open_interval, check_positive
+from .._validation import (
+    check_flag,
+    check_gain_shape,
+    check_in_open_interval,
+    check_positive,
+    check_positive_int,
+)
 from ..numerics import (
     FractionalMemory,
     abs_pow,
@@ -121,11 +126,7 @@ class FractionalSurface(eqx.Module):
         if not (math.isfinite(step) and step > 0):
             raise ValueError(f"{where}: `step` must be positive [s], got step={step}.")
         self.step = step
-        if isinstance(capacity, bool) or not isinstance(capacity, numbers.Integral) or capacity < 1:
-            raise ValueError(
-                f"{where}: `capacity` must be a positive integer (samples kept), got {capacity!r}."
-            )
-        self.capacity = int(capacity)
+        self.capacity = check_positive_int(where, "capacity", capacity)  # samples kept
         self.caputo = check_flag("FractionalSurface", "caputo", caputo)
 
     def _sample(self, e, e0):

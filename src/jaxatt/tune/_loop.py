@@ -15,7 +15,7 @@ import numpy as np
 import optax
 from jaxtyping import Array, PyTree
 
-from .._validation import check_tree_finite, host_checked_program
+from .._validation import check_positive_int, check_tree_finite, host_checked_program
 from ._checkpoint import TuneState, load_checkpoint, save_checkpoint
 from ._objective import AbstractObjective
 from ._parameters import apply, check_parameters, constrained, initial_unconstrained
@@ -262,16 +262,8 @@ def tune(
     """
     from tqdm import tqdm
 
-    if isinstance(steps, bool) or not isinstance(steps, int) or steps <= 0:
-        raise ValueError(f"tune: `steps` must be a positive integer, got steps={steps!r}.")
-    if (
-        isinstance(checkpoint_every, bool)
-        or not isinstance(checkpoint_every, int)
-        or checkpoint_every <= 0
-    ):
-        raise ValueError(
-            f"tune: `checkpoint_every` must be a positive integer, got {checkpoint_every!r}."
-        )
+    steps = check_positive_int("tune", "steps", steps)
+    checkpoint_every = check_positive_int("tune", "checkpoint_every", checkpoint_every)
     if resume and checkpoint is None:
         raise ValueError("tune: `resume=True` needs a `checkpoint` path.")
     if on_nonfinite not in ("raise", "stop"):

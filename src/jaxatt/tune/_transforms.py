@@ -14,7 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._validation import is_real_scalar
+from .._validation import check_positive_int, is_real_scalar
 
 
 def _check_bound(where: str, name: str, value) -> float:
@@ -158,16 +158,8 @@ def nearest_odd_ratio(value: float | int, max_denominator: int = 99) -> tuple[in
     """
     if not (np.isfinite(value) and value > 0):
         raise ValueError(f"nearest_odd_ratio: `value` must be positive, got value={value}.")
-    if (
-        isinstance(max_denominator, bool)
-        or not isinstance(max_denominator, (int, np.integer))
-        or max_denominator < 1
-    ):
-        # Below 1 no denominator was tried, and (1, 1) came back as if it were the nearest.
-        raise ValueError(
-            "nearest_odd_ratio: `max_denominator` must be a positive integer, got "
-            f"{max_denominator!r}."
-        )
+    # Below 1 no denominator was tried, and (1, 1) came back as if it were the nearest.
+    max_denominator = check_positive_int("nearest_odd_ratio", "max_denominator", max_denominator)
     best = (1, 1)
     best_error = abs(value - 1.0)
     for q in range(1, max_denominator + 1, 2):
