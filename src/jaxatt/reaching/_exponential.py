@@ -56,7 +56,9 @@ class Exponential(AbstractFiniteTimeReachingLaw):
 
         $$T(s_0) = \frac{1}{k_1}\ln\Big(1 + \frac{k_1 |s_0|}{k_2}\Big).$$
 
-        Solving $\frac{d}{dt}|s| = -k_1|s| - k_2$ gives it. **Gradients** are finite everywhere.
+        Solving $\frac{d}{dt}|s| = -k_1|s| - k_2$ gives it. **Gradients** are finite everywhere;
+        in `s0` at `s0 = 0` it is $1/k_2$ (one side of the kink of $|s_0|$, as
+        [`ConstantRate`][jaxatt.reaching.ConstantRate]'s $1/k$).
         """
         require_sign_switching(self, "convergence_time")
         s0 = as_state(s0)
