@@ -19,6 +19,7 @@ initial attitudes within 60 deg of the reference with rates up to 0.05 rad/s per
 
 import pathlib
 
+import jax
 import jax.random as jr
 import numpy as np
 import optax
@@ -81,7 +82,7 @@ def objective(dt: float = DT, horizon: float = HORIZON) -> tuning.SettlingObject
     )
 
 
-def initial_states(key, n: int) -> QuaternionState:
+def initial_states(key: jax.Array, n: int) -> QuaternionState:
     """`n` attitudes within 60 deg of the reference's start (Haar-uniform in the cone), rates
     uniform in [-0.05, 0.05]^3 rad/s ([`jaxatt.montecarlo.quaternion_states`][])."""
     return quaternion_states(key, n, max_rate=MAX_RATE, max_angle=MAX_ANGLE)

@@ -141,7 +141,9 @@ def initial_state() -> AgentsState:
     return AgentsState(jnp.asarray(X0).reshape(GROUPS, AGENTS))
 
 
-def run(loop: ClosedLoop, *, horizon: float = HORIZON, dt: float = DT, save_every=SAVE_EVERY):
+def run(
+    loop: ClosedLoop, *, horizon: float = HORIZON, dt: float = DT, save_every: int = SAVE_EVERY
+) -> Trajectory:
     """Simulate `loop` from $x(0)$ with RK4 at `dt` and continuous control."""
     return simulate(loop, initial_state(), 0.0, horizon, dt=dt, save_every=save_every)
 

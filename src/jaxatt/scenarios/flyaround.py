@@ -152,7 +152,7 @@ def trajectory_metrics(traj: Trajectory) -> dict:
     }
 
 
-def dispersed_starts(key, n: int) -> ProximityState:
+def dispersed_starts(key: jax.Array, n: int) -> ProximityState:
     """`n` random starts: rho in a 200 m cube, rho' within 0.5 m/s, any attitude, |w_i| < 0.02."""
     k1, k2, k3 = jr.split(key, 3)
     att = quaternion_states(k3, n, max_rate=0.02)
@@ -228,7 +228,7 @@ def monte_carlo_study(n: int = MC_SAMPLES, horizon: float = HORIZON, seed: int =
     return _summary(simulate_batch(dispersed_starts(jr.key(seed), n), horizon), seed, horizon)
 
 
-def reproduce(out_dir, *, short: bool = False, progress: bool = False) -> dict:
+def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: bool = False) -> dict:
     """The nominal fly-around and the Monte Carlo study, simulated together (the nominal start
     is sample 0 of one vmapped batch); figures and `metrics.json`.
 

@@ -68,7 +68,7 @@ def trajectory_metrics(traj: Trajectory) -> dict[str, jax.Array]:
     }
 
 
-def random_initial_states(key, n: int, max_rate: float = 0.05) -> MRPState:
+def random_initial_states(key: jax.Array, n: int, max_rate: float = 0.05) -> MRPState:
     """`n` Haar-uniform attitudes with rates uniform in the box [-max_rate, max_rate]^3 [rad/s].
 
     [`jaxatt.montecarlo.mrp_states`][]: Haar-uniform attitudes (canonical, so

@@ -36,6 +36,7 @@ from jaxtyping import Array, Float, PyTree
 from .. import tune as tuning
 from ..metrics import convergence_time
 from ..numerics import amax
+from ..plants import FlexibleSloshState
 from ..rotations import attitude_error_quat
 from ..simulation import AbstractClosedLoop, ClosedLoop, Simulation, Status, integrate
 from . import shi2024
@@ -171,7 +172,7 @@ def parameters() -> dict[str, tuning.Parameter]:
 _OPTIMIZER = optax.chain(optax.clip_by_global_norm(1.0), optax.adam(LEARNING_RATE))
 
 
-def initial_states(samples: int = 1):
+def initial_states(samples: int = 1) -> FlexibleSloshState:
     """The paper's rest state, repeated (the problem is deterministic; `samples` > 1 only
     repeats it)."""
     x0 = shi2024.initial_state()

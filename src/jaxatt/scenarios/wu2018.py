@@ -294,7 +294,7 @@ def _take(traj: Trajectory, k) -> Trajectory:
     return jax.tree_util.tree_map(lambda x: x[k], traj)
 
 
-def sample_corridor_starts(key, n: int) -> np.ndarray:
+def sample_corridor_starts(key: jax.Array, n: int) -> np.ndarray:
     """`n` starts in the approach corridor: $x \\sim U[20, 48.5]$ m, lateral offset uniform in
     the disc of 90 % of the cone's radius $x\\tan\\theta$ (Case 1's dispersion)."""
     kx, kr, ka = jr.split(key, 3)
@@ -304,7 +304,7 @@ def sample_corridor_starts(key, n: int) -> np.ndarray:
     return np.stack([x, r * np.cos(a), r * np.sin(a)], axis=-1)
 
 
-def sample_outside_starts(key, n: int) -> np.ndarray:
+def sample_outside_starts(key: jax.Array, n: int) -> np.ndarray:
     """`n` starts outside the keep-out sphere about Case 2: Case 2's position plus a uniform
     offset in a 10 m cube (all have $|P| > 55$ m and $h > 0$)."""
     offset = np.asarray(jr.uniform(key, (n, 3), minval=-5.0, maxval=5.0))

@@ -303,7 +303,7 @@ def claims(m: dict) -> dict:
     return out
 
 
-def reproduce(out_dir, *, short: bool = False, progress: bool = False) -> dict:
+def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: bool = False) -> dict:
     """Printed and tuned gains side by side; figures and `metrics.json`.
 
     `short=True` (CI): 60 s (the 50 s and 35 s claims, not the pulses).

@@ -253,7 +253,7 @@ def claims(metrics: dict) -> dict:
     return out
 
 
-def reproduce(out_dir, *, short: bool = False, progress: bool = False) -> dict:
+def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: bool = False) -> dict:
     """Simulate both laws, undisturbed and disturbed; write the figures and `metrics.json`.
 
     `short=True` (CI): a 20 s horizon (both laws are inside 1 m by then).

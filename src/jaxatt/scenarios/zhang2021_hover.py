@@ -172,7 +172,9 @@ def plant() -> CoupledAttitudeOrbit:
     return CoupledAttitudeOrbit(model(), disturbance_force(), disturbance_torque())
 
 
-def envelope(name: str, *, alpha_reading: str = "printed"):
+def envelope(
+    name: str, *, alpha_reading: str = "printed"
+) -> ExponentialPerformance | FiniteTimePerformance | None:
     """The envelope of controller `name` (`None` for the linear SMC)."""
     if name == "linear_smc":
         return None
@@ -380,7 +382,7 @@ def claims(metrics: dict) -> dict:
     }
 
 
-def reproduce(out_dir, *, short: bool = False, progress: bool = False) -> dict:
+def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: bool = False) -> dict:
     """Simulate the three controllers, write the figures and `metrics.json` to `out_dir`.
 
     `metrics.json`: `{"linear_smc": {...}, "ppc": {...}, "finite_time_ppf": {...}}` (see

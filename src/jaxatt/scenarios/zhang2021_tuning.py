@@ -107,7 +107,7 @@ def objective(
     dt: float = DT,
     save_every: int = SAVE_EVERY,
     checkpoint: bool | str = True,
-):
+) -> tuning.MetricObjective:
     """The [`jaxatt.tune.MetricObjective`][] of the module docstring (`checkpoint`: how reverse
     mode stores the loop, as [`jaxatt.simulation.Simulation`][])."""
     times = {

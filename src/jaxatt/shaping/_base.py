@@ -10,7 +10,9 @@ from .._custom_types import RealScalarLike
 from .._validation import check, check_nonnegative, check_positive, is_traced
 
 
-def damped_period(frequency: Float[ArrayLike, "..."], damping: Float[ArrayLike, "..."]):
+def damped_period(
+    frequency: Float[ArrayLike, "..."], damping: Float[ArrayLike, "..."]
+) -> Float[Array, "..."]:
     r"""$T = 2\pi/(\omega\sqrt{1 - \zeta^2})$ [s], the damped period of a mode.
 
     **Raises:** `ValueError` for a concrete `frequency <= 0` or `damping` outside [0, 1) (the

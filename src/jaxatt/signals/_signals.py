@@ -217,7 +217,9 @@ def _output_shape(signal: AbstractSignal) -> tuple[int, ...]:
     return shape
 
 
-def check_signal_shape(where: str, name: str, signal: AbstractSignal, shape: tuple[int, ...]):
+def check_signal_shape(
+    where: str, name: str, signal: AbstractSignal, shape: tuple[int, ...]
+) -> None:
     """Evaluate `signal` at t = 0 abstractly and require `shape` (a trace-time check)."""
     if not isinstance(signal, AbstractSignal):
         raise ValueError(
