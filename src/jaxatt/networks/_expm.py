@@ -1,5 +1,7 @@
-r"""A compact matrix exponential for small matrices (compiles ~5x faster than
-`jax.scipy.linalg.expm`).
+r"""A compact matrix exponential for small matrices, cheaper to compile than
+`jax.scipy.linalg.expm`: 1.2-2.6x for the value and 1.6-2.8x for its gradient (4 x 4 float64,
+lower + compile, `benchmarks/bench_expm_compile.py` with XLA's default flags and with the
+suite's, 2026-12-06, the 2-core Xeon shared with other jobs).
 
 Scaling and squaring with the $[13/13]$ Padé approximant (Higham 2005, "The scaling and
 squaring method for the matrix exponential revisited", SIAM J. Matrix Anal. Appl. 26(4)):
