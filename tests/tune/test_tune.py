@@ -285,6 +285,27 @@ def test_interrupted_run_resumes_bit_identically(tmp_path):
             optimizer=optax.sgd(0.1),
             checkpoint=short_path,
         )
+    # Regression (audit): a checkpoint resumed with another training batch, other starting
+    # gains or other parameter names of the same shapes (e.g. `jaxatt tune --resume` with
+    # another --samples or --seed) was continued silently: the result mixed two problems, and
+    # its `initial_gains` were not those the run had started from.
+    other_batch = QuaternionState(x0s.q, x0s.omega + 0.01)
+    moved = eqx.tree_at(
+        lambda m: m.controller.surface.slope, loop, loop.controller.surface.slope * 2
+    )
+    renamed = {("lam" if k == "lambda" else k): v for k, v in params.items()}
+    for changed in (dict(inputs=other_batch), dict(template=moved), dict(parameters=renamed)):
+        call = dict(template=loop, parameters=params, inputs=x0s) | changed
+        with pytest.raises(ValueError, match="was written for another tuning problem"):
+            tune.tune(
+                call["template"],
+                call["parameters"],
+                objective,
+                call["inputs"],
+                steps=6,
+                resume=True,
+                **common,
+            )
 
 
 @pytest.mark.parametrize(

@@ -2,6 +2,7 @@
 checkpoints, resume."""
 
 import dataclasses
+import hashlib
 import math
 import os
 import pathlib
@@ -204,6 +205,23 @@ def _check_inputs(objective, module, inputs) -> None:
         objective.check(module, inputs)
 
 
+def _fingerprint(template: PyTree, parameters: Mapping, inputs: PyTree) -> str:
+    """A digest of what a resumed run must share with the run that wrote its checkpoint: the
+    training batch, the starting gains and the parameters' names and paths (a checkpoint
+    stores only values, so a renamed or swapped parameter of the same shape would load)."""
+    digest = hashlib.sha256()
+    for name in sorted(parameters):
+        digest.update(f"{name}={parameters[name].path};".encode())
+    gains = [parameters[name].where(template) for name in sorted(parameters)]
+    for leaves in (gains, jtu.tree_leaves(inputs)):
+        digest.update(b"|")
+        for leaf in leaves:
+            value = np.ascontiguousarray(np.asarray(leaf))
+            digest.update(f"{value.dtype}{value.shape}".encode())
+            digest.update(value.tobytes())
+    return digest.hexdigest()
+
+
 def tune(
     template: PyTree,
     parameters: Mapping,
@@ -232,7 +250,10 @@ def tune(
     - `checkpoint`: file for `eqx.tree_serialise_leaves` checkpoints, written every
       `checkpoint_every` steps, at the end, and when interrupted (Ctrl-C).
     - `resume`: continue from `checkpoint` if it exists. A resumed run ends bit-identical to
-      an uninterrupted one (same inputs, same optimizer; XLA:CPU is deterministic).
+      an uninterrupted one (same inputs, same optimizer; XLA:CPU is deterministic). A
+      checkpoint written for another training batch, other starting gains or parameter names
+      is a `ValueError` (the rest of the template, the objective and the optimizer's settings
+      are not compared).
     - `progress`: tqdm progress bar with the current loss.
     - `callback`: called as `callback(step, loss, aux)` after every step.
     - `on_nonfinite`: `"raise"` (default) raises [`NonFiniteLossError`][] when a step's loss or
@@ -283,12 +304,13 @@ def tune(
         opt_state=optimizer.init(unconstrained),
         losses=jnp.full(steps, jnp.nan),
     )
+    fingerprint = None if checkpoint is None else _fingerprint(template, parameters, inputs)
     if resume and checkpoint is not None and pathlib.Path(checkpoint).exists():
-        state = load_checkpoint(checkpoint, state)
+        state = load_checkpoint(checkpoint, state, fingerprint)
 
     def write(state):
         if checkpoint is not None:
-            save_checkpoint(checkpoint, state)
+            save_checkpoint(checkpoint, state, fingerprint)
 
     start = int(state.step)
     stopped = None
