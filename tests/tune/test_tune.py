@@ -211,6 +211,10 @@ def test_tuning_into_divergence_stops_with_a_clear_error_and_a_good_checkpoint(t
         loop, params, objective, x0s, steps=5, optimizer=push, progress=False, on_nonfinite="stop"
     )
     assert result.steps == 2 and "at step 3" in result.stopped
+    # Regression (audit): the message said "the checkpoint holds the last good step" of a run
+    # that had no checkpoint.
+    assert "the checkpoint holds the last good step (2)" in str(error)
+    assert "checkpoint" not in result.stopped and "last good step (2)" in result.stopped
     assert float(result.gains["kd"]) == pytest.approx(float(gains["kd"]))
     assert result.losses.shape == (2,) and np.all(np.isfinite(result.losses))
     with pytest.raises(ValueError, match="on_nonfinite"):
@@ -355,6 +359,18 @@ def test_bad_tuning_configuration_fails_before_compiling(change, needle):
         )
     assert needle in str(info.value)
     assert compile_count() == before  # nothing was compiled
+
+
+def test_evaluate_names_itself_and_the_batch_it_was_given():
+    # Regression (audit): `evaluate` on a held-out batch failed with "tune: `inputs` (the
+    # training batch) is empty".
+    loop, x0s, _, objective = _small_problem()
+    empty = QuaternionState(jnp.zeros((0, 4)), jnp.zeros((0, 3)))
+    with pytest.raises(ValueError, match=r"^evaluate: `inputs` \(the batch\) is empty"):
+        tune.evaluate(loop, objective, empty)
+    bad = QuaternionState(x0s.q, x0s.omega.at[0, 0].set(jnp.nan))
+    with pytest.raises(ValueError, match=r"^evaluate: `inputs.omega` must be finite"):
+        tune.evaluate(loop, objective, bad)
 
 
 def test_aggregates():

@@ -31,6 +31,8 @@ class NonFiniteLossError(FloatingPointError):
     - `gains`: the gains at which it was evaluated (name -> NumPy array);
     - `failed`: `(failed, samples)`, how many samples of the batch failed at that step, when
       the objective's aux says (`aux["successful"]`), else `None`.
+    - `checkpoint`: whether the run writes a checkpoint (the message says it holds the last
+      good step only then).
 
     The checkpoint (if any) holds the state after the last good step; nothing of the failing
     step is saved.
@@ -43,6 +45,7 @@ class NonFiniteLossError(FloatingPointError):
         nonfinite_gradients: list[str],
         gains: dict,
         failed: tuple[int, int] | None = None,
+        checkpoint: bool = False,
     ):
         self.step = step
         self.loss = loss
@@ -72,9 +75,10 @@ class NonFiniteLossError(FloatingPointError):
                 "sample that never settled, in a penalty or in `times`), or the gradient left "
                 "the region where the loop is well posed."
             )
+        kept = "; the checkpoint holds" if checkpoint else " after"
         super().__init__(
             f"tune: at step {step}, {' and '.join(what)} (gains {shown}). {cause} Tuning "
-            f"stopped; the checkpoint holds the last good step ({step - 1}). Lower the "
+            f"stopped{kept} the last good step ({step - 1}). Lower the "
             "learning rate, bound the gains with tighter transforms, shorten dt, or evaluate "
             "the batch at these gains (tune.evaluate) to see which samples failed "
             "(aux['status'])."
@@ -156,7 +160,7 @@ def loss_and_grad(
     """
     _check_mode(mode, objective)
     check_parameters(template, parameters)
-    _check_inputs(objective, template, inputs)
+    _check_inputs("loss_and_grad", objective, template, inputs)
     step = _loss_and_grad if mode == "reverse" else _loss_and_grad_forward
     return step(dict(unconstrained), template, parameters, objective, inputs)
 
@@ -187,20 +191,21 @@ def _update(unconstrained, opt_state, grads, optimizer):
     return optax.apply_updates(unconstrained, updates), opt_state
 
 
-def _check_inputs(objective, module, inputs) -> None:
+def _check_inputs(where: str, objective, module, inputs) -> None:
+    batch = "the batch" if where == "evaluate" else "the training batch"
     leaves = jtu.tree_leaves(inputs)
     if not leaves:
-        raise ValueError("tune: `inputs` (the training batch) is empty.")
+        raise ValueError(f"{where}: `inputs` ({batch}) is empty.")
     sizes = {np.shape(leaf)[0] if np.ndim(leaf) else None for leaf in leaves}
     if None in sizes or len(sizes) != 1:
         raise ValueError(
-            "tune: every leaf of `inputs` must have the same leading (batch) axis, got sizes "
-            f"{sorted(s for s in sizes if s is not None)}."
+            f"{where}: every leaf of `inputs` must have the same leading (batch) axis, got "
+            f"sizes {sorted(s for s in sizes if s is not None)}."
         )
     (size,) = sizes
     if size == 0:
-        raise ValueError("tune: `inputs` (the training batch) is empty: it has 0 samples.")
-    check_tree_finite("tune", "inputs", inputs)
+        raise ValueError(f"{where}: `inputs` ({batch}) is empty: it has 0 samples.")
+    check_tree_finite(where, "inputs", inputs)
     if isinstance(objective, AbstractObjective):
         objective.check(module, inputs)
 
@@ -291,7 +296,7 @@ def tune(
         raise ValueError(f"tune: `on_nonfinite` must be 'raise' or 'stop', got {on_nonfinite!r}.")
     _check_mode(mode, objective)
     check_parameters(template, parameters)
-    _check_inputs(objective, template, inputs)
+    _check_inputs("tune", objective, template, inputs)
     step = _loss_and_grad if mode == "reverse" else _loss_and_grad_forward
     if optimizer is None:
         optimizer = _DEFAULT_OPTIMIZER
@@ -329,6 +334,7 @@ def tune(
                     bad,
                     {n: np.asarray(v) for n, v in gains_now.items()},
                     _failed(aux),
+                    checkpoint is not None,
                 )
                 if on_nonfinite == "raise":
                     raise error
@@ -370,7 +376,7 @@ def evaluate(module: PyTree, objective: Callable, inputs: PyTree) -> tuple[Array
     The inputs are checked first, as by [`tune`][]. A failed sample shows in the aux
     (`aux["status"]`, `inf` times) and makes the loss `inf`.
     """
-    _check_inputs(objective, module, inputs)
+    _check_inputs("evaluate", objective, module, inputs)
     return _evaluate(module, objective, inputs)
 
 
