@@ -361,6 +361,28 @@ def test_bad_tuning_configuration_fails_before_compiling(change, needle):
     assert compile_count() == before  # nothing was compiled
 
 
+@pytest.mark.parametrize(
+    "change, needle",
+    [
+        # optax.adam, not optax.adam(0.1): was "'function' object has no attribute 'init'".
+        (dict(optimizer=optax.adam), "`optimizer` must be an optax.GradientTransformation"),
+        # Was "'int' object is not callable" after the first step had compiled and run.
+        (dict(callback=1), "`callback` must be callable"),
+        # Was read as True: resume="no" resumed.
+        (dict(resume="no", checkpoint="run.eqx"), "`resume` must be True or False"),
+    ],
+)
+def test_bad_tuning_arguments_are_refused_before_compiling(
+    change, needle, no_jaxtyping, tmp_path, monkeypatch
+):
+    monkeypatch.chdir(tmp_path)
+    loop, x0s, params, objective = _small_problem()
+    before = compile_count()
+    with pytest.raises(ValueError, match=re.escape(f"tune: {needle}")):
+        tune.tune(loop, params, objective, x0s, steps=1, progress=False, **change)
+    assert compile_count() == before
+
+
 def test_evaluate_names_itself_and_the_batch_it_was_given():
     # Regression (audit): `evaluate` on a held-out batch failed with "tune: `inputs` (the
     # training batch) is empty".

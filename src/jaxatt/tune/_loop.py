@@ -16,7 +16,12 @@ import numpy as np
 import optax
 from jaxtyping import Array, PyTree
 
-from .._validation import check_positive_int, check_tree_finite, host_checked_program
+from .._validation import (
+    check_flag,
+    check_positive_int,
+    check_tree_finite,
+    host_checked_program,
+)
 from ._checkpoint import TuneState, load_checkpoint, save_checkpoint
 from ._objective import AbstractObjective
 from ._parameters import apply, check_parameters, constrained, initial_unconstrained
@@ -290,6 +295,20 @@ def tune(
 
     steps = check_positive_int("tune", "steps", steps)
     checkpoint_every = check_positive_int("tune", "checkpoint_every", checkpoint_every)
+    resume = check_flag("tune", "resume", resume)
+    progress = check_flag("tune", "progress", progress)
+    if optimizer is not None and not all(
+        callable(getattr(optimizer, method, None)) for method in ("init", "update")
+    ):
+        raise ValueError(
+            "tune: `optimizer` must be an optax.GradientTransformation (e.g. optax.adam(0.05), "
+            f"not optax.adam), got {optimizer!r}."
+        )
+    if callback is not None and not callable(callback):
+        raise ValueError(
+            "tune: `callback` must be callable as callback(step, loss, aux), got "
+            f"{type(callback).__name__}."
+        )
     if resume and checkpoint is None:
         raise ValueError("tune: `resume=True` needs a `checkpoint` path.")
     if on_nonfinite not in ("raise", "stop"):
