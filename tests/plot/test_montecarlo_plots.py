@@ -89,6 +89,13 @@ def test_plot_envelope_accepts_batched_times_and_rejects_bad_shapes():
         plot.plot_envelope(ts[0], np.ones((3, 5)), quantiles=(0.9, 0.1))
 
 
+@pytest.mark.parametrize("quantiles", [(0.05, 0.5, 0.95), 0.9])
+def test_plot_envelope_names_quantiles_that_are_not_a_pair(quantiles, no_jaxtyping):
+    # Regression (audit): "too many values to unpack", "'float' object is not iterable".
+    with pytest.raises(ValueError, match=r"plot_envelope: `quantiles` must be \(low, high\)"):
+        plot.plot_envelope(np.linspace(0.0, 1.0, 5), np.ones((3, 5)), quantiles=quantiles)
+
+
 @pytest.mark.parametrize("kind", ["cdf", "hist"])
 def test_plot_settling_distribution_counts_unsettled_in_the_legend(kind):
     results = {

@@ -81,7 +81,8 @@ def plot_envelope(
             f"plot_envelope: `values` must have shape (n, T) with T = len(ts) = {ts.shape[-1]}, "
             f"got shape {values.shape}."
         )
-    low, high = (float(q) for q in quantiles)
+    pair = np.asarray(quantiles, dtype=float) if np.ndim(quantiles) == 1 else np.array([])
+    low, high = (float(q) for q in pair) if pair.shape == (2,) else (np.nan, np.nan)
     if not 0.0 <= low <= high <= 1.0:
         raise ValueError(
             f"plot_envelope: `quantiles` must be (low, high) with 0 <= low <= high <= 1, got "
