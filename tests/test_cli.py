@@ -116,3 +116,17 @@ def test_a_settled_fraction_short_of_all_never_prints_as_100_percent():
     assert cli._settling({"mean_settling_time": 1.0, "settled_fraction": 1.0}) == (
         "1.000 s, 100.0 % settled"
     )
+
+
+@pytest.mark.parametrize("option, value", [("--samples", "0"), ("--steps", "-1")])
+def test_tune_sizes_must_be_positive_on_the_command_line(option, value, tmp_path, capsys):
+    # Regression (audit): a traceback from deep inside the problem (attitudes_within,
+    # tune), after the output folder was made; for shi2024, --steps 0 failed only after the
+    # starting gains' whole loop had been compiled and simulated.
+    with pytest.raises(SystemExit) as info:
+        cli.main(["tune", "chen2022", option, value, "--out", str(tmp_path / "out")])
+    assert info.value.code == 2
+    assert (
+        f"argument {option}: must be a positive integer, got {value!r}" in capsys.readouterr().err
+    )
+    assert not (tmp_path / "out").exists()

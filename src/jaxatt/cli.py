@@ -136,6 +136,18 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     return 0
 
 
+def _positive_int(text: str) -> int:
+    """A batch size or step count: refused by argparse (usage, exit 2) before anything is built,
+    not deep inside the problem after its output folder was made."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="jaxatt",
@@ -185,11 +197,13 @@ def build_parser() -> argparse.ArgumentParser:
     tun.add_argument(
         "name", help="tuning problem (chen2022, zhang2021, zhang2021-finite-time, shi2024)"
     )
-    tun.add_argument("--samples", type=int, help="training batch size (default: the problem's)")
-    tun.add_argument("--steps", type=int, help="optimizer steps (default: the problem's)")
+    tun.add_argument(
+        "--samples", type=_positive_int, help="training batch size (default: the problem's)"
+    )
+    tun.add_argument("--steps", type=_positive_int, help="optimizer steps (default: the problem's)")
     tun.add_argument(
         "--validation-samples",
-        type=int,
+        type=_positive_int,
         help="held-out batch size, fresh key (default: the problem's)",
     )
     tun.add_argument("--out", help="output folder (default ./jaxatt-out/tune-NAME)")

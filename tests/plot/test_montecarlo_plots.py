@@ -89,6 +89,13 @@ def test_plot_envelope_accepts_batched_times_and_rejects_bad_shapes():
         plot.plot_envelope(ts[0], np.ones((3, 5)), quantiles=(0.9, 0.1))
 
 
+@pytest.mark.parametrize("quantiles", [(0.05, 0.5, 0.95), 0.9])
+def test_plot_envelope_names_quantiles_that_are_not_a_pair(quantiles, no_jaxtyping):
+    # Regression (audit): "too many values to unpack", "'float' object is not iterable".
+    with pytest.raises(ValueError, match=r"plot_envelope: `quantiles` must be \(low, high\)"):
+        plot.plot_envelope(np.linspace(0.0, 1.0, 5), np.ones((3, 5)), quantiles=quantiles)
+
+
 @pytest.mark.parametrize("kind", ["cdf", "hist"])
 def test_plot_settling_distribution_counts_unsettled_in_the_legend(kind):
     results = {
@@ -133,3 +140,40 @@ def test_plot_scatter_vs_initial_error_counts_unsuccessful_samples_as_failed():
     np.testing.assert_allclose(finite.get_offsets()[:, 0], [10.0, 20.0])
     np.testing.assert_allclose(crosses.get_offsets()[:, 0], [30.0, 40.0])
     assert _legend_texts(ax) == ["M1 (1 failed, 1 not settled)"]
+
+
+def test_a_status_array_is_not_read_as_the_successful_mask():
+    # Regression (audit): `successful` was cast with astype(bool), so passing the status codes
+    # (0 = successful) counted every success as failed and every failure as a success.
+    ts = np.linspace(0.0, 1.0, 5)
+    values = np.vstack([np.exp(-ts), np.exp(-2 * ts), np.full(5, 10.0)])
+    status = np.array([0, 0, 2])
+    with pytest.raises(ValueError, match=r"plot_envelope: `successful` must be a boolean mask"):
+        plot.plot_envelope(ts, values, successful=status)
+    with pytest.raises(ValueError, match=r"plot_scatter_vs_initial_error: `successful` must be"):
+        plot.plot_scatter_vs_initial_error(np.ones(3), np.ones(3), successful=status)
+    ax = plot.plot_envelope(ts, values, successful=status == 0)
+    assert _legend_texts(ax)[0] == "median (1 of 3 failed or non-finite, excluded)"
+
+
+def test_plot_settling_distribution_names_a_missing_or_per_component_metric():
+    import jax.numpy as jnp
+
+    from jaxatt.montecarlo import MonteCarloResult
+
+    result = MonteCarloResult(
+        metrics={"settling_time": jnp.array([1.0, 2.0]), "peak": jnp.ones((2, 3))},
+        status=jnp.array([0, 1]),
+        failure_time=jnp.array([jnp.inf, 0.5]),
+    )
+    # Regression (audit): a bare KeyError, and NumPy's broadcasting error for a metric with
+    # one value per component.
+    with pytest.raises(ValueError, match=r"`metric` 'nope' is not a metric of 'M1'"):
+        plot.plot_settling_distribution({"M1": result}, metric="nope")
+    with pytest.raises(ValueError, match=r"'peak' of 'M1' must have one value per sample"):
+        plot.plot_settling_distribution({"M1": result}, metric="peak")
+    # Plain values of shape (n, 3) were read as 3n samples: the CDF's fractions were a third.
+    with pytest.raises(ValueError, match=r"the values of 'M1' must have shape \(n,\)"):
+        plot.plot_settling_distribution({"M1": np.ones((4, 3))})
+    ax = plot.plot_settling_distribution({"M1": result})
+    assert _legend_texts(ax) == ["M1 (1 failed)"]

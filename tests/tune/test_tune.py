@@ -211,6 +211,10 @@ def test_tuning_into_divergence_stops_with_a_clear_error_and_a_good_checkpoint(t
         loop, params, objective, x0s, steps=5, optimizer=push, progress=False, on_nonfinite="stop"
     )
     assert result.steps == 2 and "at step 3" in result.stopped
+    # Regression (audit): the message said "the checkpoint holds the last good step" of a run
+    # that had no checkpoint.
+    assert "the checkpoint holds the last good step (2)" in str(error)
+    assert "checkpoint" not in result.stopped and "last good step (2)" in result.stopped
     assert float(result.gains["kd"]) == pytest.approx(float(gains["kd"]))
     assert result.losses.shape == (2,) and np.all(np.isfinite(result.losses))
     with pytest.raises(ValueError, match="on_nonfinite"):
@@ -285,6 +289,27 @@ def test_interrupted_run_resumes_bit_identically(tmp_path):
             optimizer=optax.sgd(0.1),
             checkpoint=short_path,
         )
+    # Regression (audit): a checkpoint resumed with another training batch, other starting
+    # gains or other parameter names of the same shapes (e.g. `jaxatt tune --resume` with
+    # another --samples or --seed) was continued silently: the result mixed two problems, and
+    # its `initial_gains` were not those the run had started from.
+    other_batch = QuaternionState(x0s.q, x0s.omega + 0.01)
+    moved = eqx.tree_at(
+        lambda m: m.controller.surface.slope, loop, loop.controller.surface.slope * 2
+    )
+    renamed = {("lam" if k == "lambda" else k): v for k, v in params.items()}
+    for changed in (dict(inputs=other_batch), dict(template=moved), dict(parameters=renamed)):
+        call = dict(template=loop, parameters=params, inputs=x0s) | changed
+        with pytest.raises(ValueError, match="was written for another tuning problem"):
+            tune.tune(
+                call["template"],
+                call["parameters"],
+                objective,
+                call["inputs"],
+                steps=6,
+                resume=True,
+                **common,
+            )
 
 
 @pytest.mark.parametrize(
@@ -334,6 +359,40 @@ def test_bad_tuning_configuration_fails_before_compiling(change, needle):
         )
     assert needle in str(info.value)
     assert compile_count() == before  # nothing was compiled
+
+
+@pytest.mark.parametrize(
+    "change, needle",
+    [
+        # optax.adam, not optax.adam(0.1): was "'function' object has no attribute 'init'".
+        (dict(optimizer=optax.adam), "`optimizer` must be an optax.GradientTransformation"),
+        # Was "'int' object is not callable" after the first step had compiled and run.
+        (dict(callback=1), "`callback` must be callable"),
+        # Was read as True: resume="no" resumed.
+        (dict(resume="no", checkpoint="run.eqx"), "`resume` must be True or False"),
+    ],
+)
+def test_bad_tuning_arguments_are_refused_before_compiling(
+    change, needle, no_jaxtyping, tmp_path, monkeypatch
+):
+    monkeypatch.chdir(tmp_path)
+    loop, x0s, params, objective = _small_problem()
+    before = compile_count()
+    with pytest.raises(ValueError, match=re.escape(f"tune: {needle}")):
+        tune.tune(loop, params, objective, x0s, steps=1, progress=False, **change)
+    assert compile_count() == before
+
+
+def test_evaluate_names_itself_and_the_batch_it_was_given():
+    # Regression (audit): `evaluate` on a held-out batch failed with "tune: `inputs` (the
+    # training batch) is empty".
+    loop, x0s, _, objective = _small_problem()
+    empty = QuaternionState(jnp.zeros((0, 4)), jnp.zeros((0, 3)))
+    with pytest.raises(ValueError, match=r"^evaluate: `inputs` \(the batch\) is empty"):
+        tune.evaluate(loop, objective, empty)
+    bad = QuaternionState(x0s.q, x0s.omega.at[0, 0].set(jnp.nan))
+    with pytest.raises(ValueError, match=r"^evaluate: `inputs.omega` must be finite"):
+        tune.evaluate(loop, objective, bad)
 
 
 def test_aggregates():

@@ -20,7 +20,14 @@ def _host(values: ArrayLike) -> np.ndarray:
 def _successful_mask(successful: ArrayLike | None, n: int, name: str) -> np.ndarray:
     if successful is None:
         return np.ones(n, bool)
-    mask = np.asarray(successful).astype(bool).reshape(-1)
+    dtype = np.asarray(successful).dtype
+    if dtype.kind != "b":
+        # Integer status codes cast to bool would swap success (0) and failure.
+        raise ValueError(
+            f"{name}: `successful` must be a boolean mask (e.g. `result.successful` or "
+            f"`result.status == 0`), got an array of dtype {dtype}."
+        )
+    mask = np.asarray(successful).reshape(-1)
     if mask.shape != (n,):
         raise ValueError(
             f"{name}: `successful` must have one entry per sample, shape ({n},), got shape "
@@ -74,7 +81,8 @@ def plot_envelope(
             f"plot_envelope: `values` must have shape (n, T) with T = len(ts) = {ts.shape[-1]}, "
             f"got shape {values.shape}."
         )
-    low, high = (float(q) for q in quantiles)
+    pair = np.asarray(quantiles, dtype=float) if np.ndim(quantiles) == 1 else np.array([])
+    low, high = (float(q) for q in pair) if pair.shape == (2,) else (np.nan, np.nan)
     if not 0.0 <= low <= high <= 1.0:
         raise ValueError(
             f"plot_envelope: `quantiles` must be (low, high) with 0 <= low <= high <= 1, got "
@@ -122,13 +130,31 @@ def _legend_label(
     return f"{name} ({', '.join(parts)})" if parts else name
 
 
-def _values_and_failures(values, metric: str) -> tuple[np.ndarray, np.ndarray | None]:
+def _values_and_failures(values, metric: str, label: str) -> tuple[np.ndarray, np.ndarray | None]:
     from ..montecarlo import MonteCarloResult
 
+    where = "plot_settling_distribution"
     if isinstance(values, MonteCarloResult):
+        if metric not in values.metrics:
+            raise ValueError(
+                f"{where}: `metric` {metric!r} is not a metric of {label!r}; it has "
+                f"{sorted(values.metrics)}."
+            )
         failed = ~_host(values.successful).astype(bool).reshape(-1)
-        return _host(values.metrics[metric]).reshape(-1), failed
-    return _host(values).reshape(-1), None
+        data = _host(values.metrics[metric])
+        if data.shape != failed.shape:
+            raise ValueError(
+                f"{where}: the metric {metric!r} of {label!r} must have one value per sample, "
+                f"shape {failed.shape}, got shape {data.shape} (draw one component at a time)."
+            )
+        return data, failed
+    data = _host(values)
+    if data.ndim != 1:
+        raise ValueError(
+            f"{where}: the values of {label!r} must have shape (n,), one per sample, got shape "
+            f"{data.shape}."
+        )
+    return data, None
 
 
 def plot_settling_distribution(
@@ -161,7 +187,10 @@ def plot_settling_distribution(
         raise ValueError(
             f"plot_settling_distribution: `kind` must be 'cdf' or 'hist', got {kind!r}."
         )
-    data = {str(name): _values_and_failures(values, metric) for name, values in results.items()}
+    data = {
+        str(name): _values_and_failures(values, metric, str(name))
+        for name, values in results.items()
+    }
     if not data:
         raise ValueError("plot_settling_distribution: `results` must not be empty.")
     ax = _new_axes(ax)

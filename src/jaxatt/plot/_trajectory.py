@@ -81,9 +81,14 @@ def plot_signal(
         values = values[:, None]
     if components is not None:
         values = values[:, components]
-    ax = _new_axes(ax)
     if labels is None:
         labels = [f"{name}[{i}]" for i in range(values.shape[1])]
+    elif len(labels) != values.shape[1]:
+        raise ValueError(
+            f"plot_signal: `labels` must have {values.shape[1]} entries, one per drawn component "
+            f"of {name!r}, got {len(labels)}: {list(labels)!r}."
+        )
+    ax = _new_axes(ax)
     for column, label in zip(values.T, labels):
         ax.plot(ts, np.abs(column) if log else column, label=label, lw=1.2)
     if log:
@@ -119,7 +124,20 @@ def plot_rate_error(traj: Trajectory, *, ax: Axes | None = None) -> Axes:
 
 
 def plot_control(traj: Trajectory, *, ax: Axes | None = None, limit: float | None = None) -> Axes:
-    """Applied control torque [N m], with the saturation limit drawn when given."""
+    """Applied control torque [N m], with the saturation limit drawn when given.
+
+    The control must be a 3-axis torque; a control with other components (e.g. a 6-DOF force
+    and torque) is refused: draw it with [`plot_signal`][] (`components=slice(3, 6)` for the
+    torque of a 6-DOF plant).
+    """
+    shape = np.shape(traj.signals.get("u", np.zeros(3)))
+    if shape[-1:] != (3,):
+        raise ValueError(
+            "plot_control: the applied control `u` must be a 3-axis torque, got "
+            f"{shape[-1] if shape else 0} components (shape {shape}); "
+            "draw it with plot_signal(traj, 'u', ...) (components=slice(3, 6) for a 6-DOF "
+            "plant's torque)."
+        )
     ax = plot_signal(
         traj, "u", ax=ax, labels=[f"$u_{a}$" for a in _AXIS_LABELS], ylabel="torque [N m]"
     )

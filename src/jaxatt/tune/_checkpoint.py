@@ -5,6 +5,7 @@ import pathlib
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float, Int, PyTree
 
 
@@ -17,12 +18,16 @@ class TuneState(eqx.Module):
     losses: Float[Array, " steps"]
 
 
-def save_checkpoint(path: str | os.PathLike, state: TuneState) -> None:
+def save_checkpoint(
+    path: str | os.PathLike, state: TuneState, fingerprint: str | None = None
+) -> None:
     """Write `state` with `eqx.tree_serialise_leaves` (to a temporary file, then renamed, so an
     interruption never leaves a half-written checkpoint).
 
     The file starts with the length of the loss history, so that a run can be resumed with a
-    different total number of steps ([`load_checkpoint`][]).
+    different total number of steps ([`load_checkpoint`][]); it ends with `fingerprint` (when
+    given: [`tune`][] writes a digest of its training batch, starting gains and parameters), which
+    `load_checkpoint` compares.
     """
     path = pathlib.Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -30,15 +35,22 @@ def save_checkpoint(path: str | os.PathLike, state: TuneState) -> None:
     with open(tmp, "wb") as f:
         eqx.tree_serialise_leaves(f, jnp.array(state.losses.shape[0]))
         eqx.tree_serialise_leaves(f, state)
+        if fingerprint is not None:
+            np.save(f, np.frombuffer(fingerprint.encode(), np.uint8))
     os.replace(tmp, path)
 
 
-def load_checkpoint(path: str | os.PathLike, like: TuneState) -> TuneState:
+def load_checkpoint(
+    path: str | os.PathLike, like: TuneState, fingerprint: str | None = None
+) -> TuneState:
     """Read a checkpoint written by [`save_checkpoint`][] into the structure of `like`.
 
     The loss history is padded (with NaN) or cut to `like`'s length, so a run stopped after
     `k` steps can continue to any total `steps >= k`. A checkpoint of another problem (other
-    parameters, another optimizer) is a `ValueError` naming the file.
+    parameters, another optimizer) is a `ValueError` naming the file; so is, when
+    `fingerprint` is given, a checkpoint written with another fingerprint (another training
+    batch, other starting gains, parameter names of the same shapes). A checkpoint written
+    without one is not compared.
     """
     with open(path, "rb") as f:
         try:
@@ -50,6 +62,17 @@ def load_checkpoint(path: str | os.PathLike, like: TuneState) -> TuneState:
                 f"tune: the checkpoint {str(path)!r} does not belong to this tuning problem "
                 f"(other parameters or optimizer?): {error}"
             ) from None
+        try:
+            saved = np.load(f, allow_pickle=False).tobytes().decode()
+        except (EOFError, ValueError, UnicodeDecodeError):
+            saved = None  # written without a fingerprint
+    if fingerprint is not None and saved is not None and saved != fingerprint:
+        raise ValueError(
+            f"tune: the checkpoint {str(path)!r} was written for another tuning problem: its "
+            "training batch (`inputs`), starting gains or parameter names differ from this call's. "
+            "Resume with the same ones, or start afresh (resume=False or another checkpoint "
+            "path)."
+        )
     steps = like.losses.shape[0]
     done = int(state.step)
     if done > steps:

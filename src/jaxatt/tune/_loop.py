@@ -2,6 +2,7 @@
 checkpoints, resume."""
 
 import dataclasses
+import hashlib
 import math
 import os
 import pathlib
@@ -15,7 +16,12 @@ import numpy as np
 import optax
 from jaxtyping import Array, PyTree
 
-from .._validation import check_positive_int, check_tree_finite, host_checked_program
+from .._validation import (
+    check_flag,
+    check_positive_int,
+    check_tree_finite,
+    host_checked_program,
+)
 from ._checkpoint import TuneState, load_checkpoint, save_checkpoint
 from ._objective import AbstractObjective
 from ._parameters import apply, check_parameters, constrained, initial_unconstrained
@@ -30,6 +36,8 @@ class NonFiniteLossError(FloatingPointError):
     - `gains`: the gains at which it was evaluated (name -> NumPy array);
     - `failed`: `(failed, samples)`, how many samples of the batch failed at that step, when
       the objective's aux says (`aux["successful"]`), else `None`.
+    - `checkpoint`: whether the run writes a checkpoint (the message says it holds the last
+      good step only then).
 
     The checkpoint (if any) holds the state after the last good step; nothing of the failing
     step is saved.
@@ -42,6 +50,7 @@ class NonFiniteLossError(FloatingPointError):
         nonfinite_gradients: list[str],
         gains: dict,
         failed: tuple[int, int] | None = None,
+        checkpoint: bool = False,
     ):
         self.step = step
         self.loss = loss
@@ -71,9 +80,10 @@ class NonFiniteLossError(FloatingPointError):
                 "sample that never settled, in a penalty or in `times`), or the gradient left "
                 "the region where the loop is well posed."
             )
+        kept = "; the checkpoint holds" if checkpoint else " after"
         super().__init__(
             f"tune: at step {step}, {' and '.join(what)} (gains {shown}). {cause} Tuning "
-            f"stopped; the checkpoint holds the last good step ({step - 1}). Lower the "
+            f"stopped{kept} the last good step ({step - 1}). Lower the "
             "learning rate, bound the gains with tighter transforms, shorten dt, or evaluate "
             "the batch at these gains (tune.evaluate) to see which samples failed "
             "(aux['status'])."
@@ -155,7 +165,7 @@ def loss_and_grad(
     """
     _check_mode(mode, objective)
     check_parameters(template, parameters)
-    _check_inputs(objective, template, inputs)
+    _check_inputs("loss_and_grad", objective, template, inputs)
     step = _loss_and_grad if mode == "reverse" else _loss_and_grad_forward
     return step(dict(unconstrained), template, parameters, objective, inputs)
 
@@ -186,22 +196,40 @@ def _update(unconstrained, opt_state, grads, optimizer):
     return optax.apply_updates(unconstrained, updates), opt_state
 
 
-def _check_inputs(objective, module, inputs) -> None:
+def _check_inputs(where: str, objective, module, inputs) -> None:
+    batch = "the batch" if where == "evaluate" else "the training batch"
     leaves = jtu.tree_leaves(inputs)
     if not leaves:
-        raise ValueError("tune: `inputs` (the training batch) is empty.")
+        raise ValueError(f"{where}: `inputs` ({batch}) is empty.")
     sizes = {np.shape(leaf)[0] if np.ndim(leaf) else None for leaf in leaves}
     if None in sizes or len(sizes) != 1:
         raise ValueError(
-            "tune: every leaf of `inputs` must have the same leading (batch) axis, got sizes "
-            f"{sorted(s for s in sizes if s is not None)}."
+            f"{where}: every leaf of `inputs` must have the same leading (batch) axis, got "
+            f"sizes {sorted(s for s in sizes if s is not None)}."
         )
     (size,) = sizes
     if size == 0:
-        raise ValueError("tune: `inputs` (the training batch) is empty: it has 0 samples.")
-    check_tree_finite("tune", "inputs", inputs)
+        raise ValueError(f"{where}: `inputs` ({batch}) is empty: it has 0 samples.")
+    check_tree_finite(where, "inputs", inputs)
     if isinstance(objective, AbstractObjective):
         objective.check(module, inputs)
+
+
+def _fingerprint(template: PyTree, parameters: Mapping, inputs: PyTree) -> str:
+    """A digest of what a resumed run must share with the run that wrote its checkpoint: the
+    training batch, the starting gains and the parameters' names and paths (a checkpoint
+    stores only values, so a renamed or swapped parameter of the same shape would load)."""
+    digest = hashlib.sha256()
+    for name in sorted(parameters):
+        digest.update(f"{name}={parameters[name].path};".encode())
+    gains = [parameters[name].where(template) for name in sorted(parameters)]
+    for leaves in (gains, jtu.tree_leaves(inputs)):
+        digest.update(b"|")
+        for leaf in leaves:
+            value = np.ascontiguousarray(np.asarray(leaf))
+            digest.update(f"{value.dtype}{value.shape}".encode())
+            digest.update(value.tobytes())
+    return digest.hexdigest()
 
 
 def tune(
@@ -232,7 +260,10 @@ def tune(
     - `checkpoint`: file for `eqx.tree_serialise_leaves` checkpoints, written every
       `checkpoint_every` steps, at the end, and when interrupted (Ctrl-C).
     - `resume`: continue from `checkpoint` if it exists. A resumed run ends bit-identical to
-      an uninterrupted one (same inputs, same optimizer; XLA:CPU is deterministic).
+      an uninterrupted one (same inputs, same optimizer; XLA:CPU is deterministic). A
+      checkpoint written for another training batch, other starting gains or parameter names
+      is a `ValueError` (the rest of the template, the objective and the optimizer's settings
+      are not compared).
     - `progress`: tqdm progress bar with the current loss.
     - `callback`: called as `callback(step, loss, aux)` after every step.
     - `on_nonfinite`: `"raise"` (default) raises [`NonFiniteLossError`][] when a step's loss or
@@ -264,13 +295,27 @@ def tune(
 
     steps = check_positive_int("tune", "steps", steps)
     checkpoint_every = check_positive_int("tune", "checkpoint_every", checkpoint_every)
+    resume = check_flag("tune", "resume", resume)
+    progress = check_flag("tune", "progress", progress)
+    if optimizer is not None and not all(
+        callable(getattr(optimizer, method, None)) for method in ("init", "update")
+    ):
+        raise ValueError(
+            "tune: `optimizer` must be an optax.GradientTransformation (e.g. optax.adam(0.05), "
+            f"not optax.adam), got {optimizer!r}."
+        )
+    if callback is not None and not callable(callback):
+        raise ValueError(
+            "tune: `callback` must be callable as callback(step, loss, aux), got "
+            f"{type(callback).__name__}."
+        )
     if resume and checkpoint is None:
         raise ValueError("tune: `resume=True` needs a `checkpoint` path.")
     if on_nonfinite not in ("raise", "stop"):
         raise ValueError(f"tune: `on_nonfinite` must be 'raise' or 'stop', got {on_nonfinite!r}.")
     _check_mode(mode, objective)
     check_parameters(template, parameters)
-    _check_inputs(objective, template, inputs)
+    _check_inputs("tune", objective, template, inputs)
     step = _loss_and_grad if mode == "reverse" else _loss_and_grad_forward
     if optimizer is None:
         optimizer = _DEFAULT_OPTIMIZER
@@ -283,12 +328,13 @@ def tune(
         opt_state=optimizer.init(unconstrained),
         losses=jnp.full(steps, jnp.nan),
     )
+    fingerprint = None if checkpoint is None else _fingerprint(template, parameters, inputs)
     if resume and checkpoint is not None and pathlib.Path(checkpoint).exists():
-        state = load_checkpoint(checkpoint, state)
+        state = load_checkpoint(checkpoint, state, fingerprint)
 
     def write(state):
         if checkpoint is not None:
-            save_checkpoint(checkpoint, state)
+            save_checkpoint(checkpoint, state, fingerprint)
 
     start = int(state.step)
     stopped = None
@@ -307,6 +353,7 @@ def tune(
                     bad,
                     {n: np.asarray(v) for n, v in gains_now.items()},
                     _failed(aux),
+                    checkpoint is not None,
                 )
                 if on_nonfinite == "raise":
                     raise error
@@ -348,7 +395,7 @@ def evaluate(module: PyTree, objective: Callable, inputs: PyTree) -> tuple[Array
     The inputs are checked first, as by [`tune`][]. A failed sample shows in the aux
     (`aux["status"]`, `inf` times) and makes the loss `inf`.
     """
-    _check_inputs(objective, module, inputs)
+    _check_inputs("evaluate", objective, module, inputs)
     return _evaluate(module, objective, inputs)
 
 

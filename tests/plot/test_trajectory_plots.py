@@ -1,0 +1,47 @@
+"""Time-history figures: every drawn component is labelled as what it is."""
+
+import matplotlib
+
+
+matplotlib.use("Agg")
+
+import jax.numpy as jnp  # noqa: E402
+import matplotlib.pyplot as plt  # noqa: E402
+import pytest  # noqa: E402
+
+from jaxatt import plot  # noqa: E402
+from jaxatt.simulation import Trajectory  # noqa: E402
+
+
+@pytest.fixture(autouse=True)
+def close_figures():
+    yield
+    plt.close("all")
+
+
+def _trajectory(u_components: int) -> Trajectory:
+    ts = jnp.linspace(0.0, 1.0, 5)
+    signals = {
+        "u": jnp.outer(ts, jnp.arange(1.0, u_components + 1)),
+        "rate_error": jnp.zeros((5, 3)),
+    }
+    return Trajectory(ts, (), signals, jnp.array(0), jnp.array(jnp.inf), {})
+
+
+def test_plot_control_of_a_six_component_control_is_refused_not_cut_to_three():
+    # Regression (audit): a 6-DOF control (force, then torque) was drawn as its first three
+    # components, the force, labelled u_x, u_y, u_z on a "torque [N m]" axis.
+    ax = plot.plot_control(_trajectory(3))
+    assert len(ax.get_lines()) == 3
+    with pytest.raises(ValueError, match=r"plot_control: .*6 components.*plot_signal"):
+        plot.plot_control(_trajectory(6))
+    # plot_signal draws all six.
+    assert len(plot.plot_signal(_trajectory(6), "u").get_lines()) == 6
+
+
+def test_plot_signal_labels_must_match_the_drawn_components():
+    # Regression (audit): zip() dropped the components without a label, silently.
+    with pytest.raises(ValueError, match=r"plot_signal: `labels` must have 6 entries.*got 3"):
+        plot.plot_signal(_trajectory(6), "u", labels=["a", "b", "c"])
+    ax = plot.plot_signal(_trajectory(6), "u", labels=list("abc"), components=slice(3, 6))
+    assert [line.get_label() for line in ax.get_lines()] == ["a", "b", "c"]
