@@ -38,10 +38,32 @@ def test_short_reproduction_writes_metrics_and_figures(short):
             ):
                 assert key in m
             assert m["status"] == 0
-        # Both laws bring the chaser inside 10 m; PD inside 1 m within the 20 s.
-        assert 5.0 < on_disk[case]["pd"]["settle_time_10m"] < 6.5
-        assert on_disk[case]["pd"]["settle_time_1m"] < 12.0
-        assert 9.0 < on_disk[case]["pd_alpha"]["settle_time_10m"] < 12.0
+    # Both laws bring the chaser inside 10 m; PD inside 1 m within the 20 s, PD^alpha only at
+    # 101.5 s. The short run is the full one cut at 20 s (same step, hold and full memory), so
+    # its times are the gallery's (docs/gallery/zhang2017.md, undisturbed / disturbed), printed
+    # to 2 decimals; the width 0.01 s is that rounding plus as much again, as notebook 07
+    # asserts the undisturbed ones. Last exits interpolated between saves (0.01 s for PD,
+    # 0.5 s for PD^alpha), so the values are deterministic to rounding.
+    expected = {
+        "undisturbed": {"pd": (5.74, 10.35), "pd_alpha": 10.74},
+        "disturbed": {"pd": (5.73, 10.34), "pd_alpha": 10.77},
+    }
+    for case, e in expected.items():
+        pd, fr = on_disk[case]["pd"], on_disk[case]["pd_alpha"]
+        assert pd["settle_time_10m"] == pytest.approx(e["pd"][0], abs=0.01), case
+        assert pd["settle_time_1m"] == pytest.approx(e["pd"][1], abs=0.01), case
+        assert fr["settle_time_10m"] == pytest.approx(e["pd_alpha"], abs=0.01), case
+        assert fr["settle_time_1m"] is None, case  # not inside 1 m by 20 s
+    # SPEC 001(e)'s claims. Reproduced: PD^alpha consumes more energy (1.41x / 1.38x over
+    # 200 s; notebook 07 asserts it in short mode too). Not reproduced: "PD^alpha needs much
+    # less control time": it is slower to 10 m and never inside 1 m in the 20 s (the gallery
+    # explains why: the Mittag-Leffler tail of the fractional surface).
+    for case in zhang2017.CASES:
+        claims = on_disk["claims"][case]
+        assert claims["pd_alpha_consumes_more_energy"], case
+        assert not claims["pd_alpha_needs_less_control_time"], case
+        pd, fr = on_disk[case]["pd"], on_disk[case]["pd_alpha"]
+        assert fr["settle_time_10m"] > pd["settle_time_10m"], case  # 10.7 against 5.7 s
     assert sorted(p.name for p in out.glob("*.png")) == [
         "fig_control_disturbed.png",
         "fig_control_undisturbed.png",

@@ -80,13 +80,19 @@ def test_why_ppc_attitude_is_slower_than_the_linear_smc(reproduction):
     attitude_slope = hover.PPC_SURFACE * rho[:, 3] / rho[:, 1]
     crossing = float(ts[jnp.argmax(attitude_slope >= hover.LINEAR_SURFACE[3])])
     # (0.04 x + 0.01) / (1.49 x + 0.01) = 0.1  ->  x = 0.009 / 0.109, t = -ln(x) / 0.01
-    assert crossing == pytest.approx(-np.log(0.009 / 0.109) / 0.01, abs=0.2)
+    # (249.41 s). `crossing` is the first point of the 0.1 s grid at or after it, so it lies
+    # in [t, t + 0.1): the grid spacing is the width.
+    closed = -np.log(0.009 / 0.109) / 0.01
+    assert 0.0 <= crossing - closed < 0.1
     assert float(rho[0, 2] / rho[0, 0]) > hover.LINEAR_SURFACE[0]
     assert m["ppc"]["settle_time_attitude"] > crossing
 
 
 def test_ppc_reduces_the_x_overshoot_and_the_finite_time_envelope_closes_at_T(reproduction):
     _, m = reproduction
+    # Fig. 15's "strongly reduces", read as at least tenfold; measured 0.124 against 4.24 m
+    # (34x, asserted to 1e-3 m in notebook 05), so the factor 10 is a reading of the claim, not
+    # a numerical tolerance.
     assert m["ppc"]["overshoot_x"] < 0.1 * m["linear_smc"]["overshoot_x"]
     ft = hover.envelope("finite_time_ppf")
     np.testing.assert_array_equal(ft.value(hover.FT_HORIZON), jnp.asarray(hover.FT_RHO_INF))
