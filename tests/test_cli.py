@@ -102,9 +102,14 @@ def test_unknown_scenario_is_an_error(capsys):
     assert "no tuning problem" in capsys.readouterr().err
 
 
-def test_bad_command_line_exits_with_usage():
-    with pytest.raises(SystemExit):
+def test_bad_command_line_exits_with_usage(capsys):
+    with pytest.raises(SystemExit) as info:
         cli.main(["frobnicate"])
+    # argparse's usage error: exit status 2 and the usage line on stderr (a bare SystemExit
+    # would also have passed on sys.exit(0) after, say, printing the help).
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("usage:") and "invalid choice: 'frobnicate'" in err
 
 
 def test_a_settled_fraction_short_of_all_never_prints_as_100_percent():

@@ -167,6 +167,13 @@ PAGES_WITH_CODE = [
 ]
 
 
+def test_there_are_code_blocks_to_run():
+    # Not vacuous: were _FENCE to find nothing, test_code_blocks_run would be an empty
+    # parametrisation (skipped, not failed) and the two block checks above would pass on no
+    # blocks at all. README and the getting-started page both show Python.
+    assert {ROOT / "README.md", DOCS / "getting-started.md"} <= set(PAGES_WITH_CODE)
+
+
 @pytest.mark.parametrize("page", PAGES_WITH_CODE, ids=lambda p: str(p.relative_to(ROOT)))
 def test_code_blocks_run(page, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # blocks may write checkpoints or figures

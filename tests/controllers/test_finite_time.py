@@ -70,7 +70,7 @@ def test_alpha2_makes_the_nominal_closed_loop_homogeneous(alpha1):
 
 
 def test_alpha2_is_never_an_argument_and_gains_are_validated():
-    with pytest.raises(TypeError):
+    with pytest.raises(TypeError, match="unexpected keyword argument 'alpha2'"):
         FiniteTimeMRP(0.03, 0.01, 0.5, alpha2=0.6)  # type: ignore[call-arg]
     cases = [
         (lambda: FiniteTimeMRP(-0.03, 0.01, 0.5), "k1"),

@@ -232,8 +232,10 @@ def test_bad_input_raises(build, needle, no_jaxtyping):
     assert needle in str(info.value)
 
 
-def test_wrong_component_types_are_type_errors():
-    with pytest.raises(TypeError):
+def test_wrong_component_types_are_type_errors(no_jaxtyping):
+    # The constructors' own TypeErrors (what users meet; under the suite's hook the
+    # annotations answered first, and a bare TypeError would also pass on a wrong call).
+    with pytest.raises(TypeError, match="FeedbackLinearization: `outer` must be an Abstract"):
         FeedbackLinearization(jnp.eye(3), "pd")
-    with pytest.raises(TypeError):
+    with pytest.raises(TypeError, match="GlobalSurface: `decay` must be an AbstractDecay"):
         GlobalSurface(TerminalSurface(1.0, 0.5, 0.6), 1.0)

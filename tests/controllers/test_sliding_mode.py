@@ -118,7 +118,7 @@ def test_bad_sliding_mode_configuration_raises(build, needle):
 
 
 def test_wrong_component_type_is_a_type_error(no_jaxtyping):
-    with pytest.raises(TypeError):
+    with pytest.raises(TypeError, match="SlidingModeTracking: `reaching_law` has the wrong type"):
         SlidingModeTracking(LinearSurface(1.0), "two-phase", jnp.eye(3))
     # A number where a switching function goes (the boundary-layer width, say) failed only
     # when the law was first evaluated: 'float' object has no attribute 'signed_power'.

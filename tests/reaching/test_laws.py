@@ -378,6 +378,14 @@ def test_odd_ratio():
     for p, q, name in [(2, 3, "p"), (3, 0, "q"), (-3, 1, "p"), (True, 1, "p")]:
         with pytest.raises(ValueError, match=f"`{name}` must be a positive odd integer"):
             odd_ratio(p, q)
-    # A float is rejected too (by the annotation's checker under pytest, else by odd_ratio).
-    with pytest.raises((TypeError, ValueError)):
+    # A float is rejected too: by the annotation's checker under pytest ...
+    with pytest.raises(TypeError, match="typechecking parameter 'p'"):
         odd_ratio(3.0, 1)
+
+
+def test_odd_ratio_refuses_a_float_without_the_type_checker(no_jaxtyping):
+    # ... and by odd_ratio itself, which is what users meet (3.0 == 3 is odd, so only the
+    # integer-type test refuses it).
+    for p, q, name in [(3.0, 1, "p"), (3, 1.0, "q")]:
+        with pytest.raises(ValueError, match=f"`{name}` must be a positive odd integer"):
+            odd_ratio(p, q)

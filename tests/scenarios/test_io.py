@@ -32,5 +32,5 @@ def test_write_json_turns_nan_and_inf_into_null(tmp_path):
 
 def test_write_json_refuses_a_nan_that_escapes_the_sanitizer(tmp_path, monkeypatch):
     monkeypatch.setattr(_io, "json_safe", lambda tree: tree)
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="Out of range float values are not JSON compliant"):
         _io.write_json(tmp_path / "m.json", {"x": math.nan})

@@ -2,6 +2,7 @@
 slot, construction-time checks, dotted paths, and the library / applications split."""
 
 import json
+import re
 import subprocess
 import sys
 
@@ -162,8 +163,14 @@ def test_dotted_paths():
     )
     loop = ClosedLoop(RigidBodyMRP(J0), MRPPD(1.0, 2.0))
     assert float(get_path(loop, "controller.k2")) == 2.0
-    for bad in ("", "a..b", "a.[0]", "a.b[x]", "1a"):
-        with pytest.raises(ValueError):
+    for bad, why in (
+        ("", "must be a non-empty string"),
+        ("a..b", "empty segment in 'a..b'"),
+        ("a.[0]", "cannot parse 'a.[0]' at character 2"),
+        ("a.b[x]", "cannot parse 'a.b[x]' at character 3"),
+        ("1a", "cannot parse '1a' at character 0"),
+    ):
+        with pytest.raises(ValueError, match=re.escape(why)):
             parse_path(bad)
 
 
