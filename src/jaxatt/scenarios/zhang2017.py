@@ -12,6 +12,14 @@ $\dot\rho(0) = (-5, 10, -8)$ m/s to $\rho_d = 0$. Gains (not printed), the same 
 $c = 0.5$, $k = 1$, $\varepsilon = 0.3$, $\alpha = 0.8$; horizon 200 s.
 Disturbed case (18): $d = 0.2\cos(2t)[1, 1, 1]$ m/s^2 added to $\ddot\rho$.
 
+**Sign of the error.** SPEC's decision (and the paper) write $e = \rho_d - \rho = -\rho$;
+jaxatt's controllers take $e = \rho - \rho_d = \rho$ (state minus reference, as every
+controller of the library). The surfaces $s$ and $S$ change sign, and nothing else does: each
+law's $u$ is the one that makes $\dot s$ (affine in $u$) equal the reaching law, and the laws
+are odd, so $\dot s = -\varepsilon\,\mathrm{sgn}\,s - ks$ holds for $s$ exactly when it holds
+for $-s$: the control and the trajectories are the same. Reported surfaces (e.g. `s0` =
+$(-35, 27.5, -33)$) carry jaxatt's sign.
+
 - PD, eq. (11): [`jaxatt.controllers.TranslationalSlidingMode`][] with
   `PDSurface(c)` and `Exponential(k, eps)` ($\dot s = -\varepsilon\,\mathrm{sgn}\,s - ks$).
 - PD$^\alpha$, eqs. (12), (17): [`jaxatt.controllers.FractionalSlidingMode`][]: Caputo
