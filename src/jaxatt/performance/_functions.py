@@ -24,12 +24,9 @@ def _common_shape(where: str, **arrays: Array) -> tuple[Array, ...]:
 
 def _split_infinity(t: RealScalarLike) -> tuple[Array, Array]:
     r"""`(t == +inf, t with +inf replaced by 0)`. The envelopes evaluate their closed forms at the
-        finite copy and select the limit ($
-    ho_\infty$, $\dot
-    ho = 0$) at $t = \infty$: the closed
-        forms' gradients in the parameters there are $\infty \cdot 0$, NaN (e.g. $-t e^{-lpha t}$
-        in the exponential's rate), where the limit's are those of $
-    ho_\infty$."""
+    finite copy and select the limit ($\rho_\infty$, $\dot\rho = 0$) at $t = \infty$: the closed
+    forms' gradients in the parameters there are $\infty \cdot 0$, NaN (e.g. $-t e^{-\alpha t}$
+    in the exponential's rate), where the limit's are those of $\rho_\infty$."""
     at_infinity = jnp.isposinf(t)
     return at_infinity, jnp.where(at_infinity, 0.0, t)
 

@@ -20,14 +20,14 @@ def _host(values: ArrayLike) -> np.ndarray:
 def _successful_mask(successful: ArrayLike | None, n: int, name: str) -> np.ndarray:
     if successful is None:
         return np.ones(n, bool)
-    dtype = np.asarray(successful).dtype
-    if dtype.kind != "b":
+    mask = np.asarray(successful)
+    if mask.dtype.kind != "b":
         # Integer status codes cast to bool would swap success (0) and failure.
         raise ValueError(
             f"{name}: `successful` must be a boolean mask (e.g. `result.successful` or "
-            f"`result.status == 0`), got an array of dtype {dtype}."
+            f"`result.status == 0`), got an array of dtype {mask.dtype}."
         )
-    mask = np.asarray(successful).reshape(-1)
+    mask = mask.reshape(-1)
     if mask.shape != (n,):
         raise ValueError(
             f"{name}: `successful` must have one entry per sample, shape ({n},), got shape "
@@ -81,13 +81,12 @@ def plot_envelope(
             f"plot_envelope: `values` must have shape (n, T) with T = len(ts) = {ts.shape[-1]}, "
             f"got shape {values.shape}."
         )
-    pair = np.asarray(quantiles, dtype=float) if np.ndim(quantiles) == 1 else np.array([])
-    low, high = (float(q) for q in pair) if pair.shape == (2,) else (np.nan, np.nan)
-    if not 0.0 <= low <= high <= 1.0:
+    if np.shape(quantiles) != (2,) or not 0.0 <= quantiles[0] <= quantiles[1] <= 1.0:
         raise ValueError(
             f"plot_envelope: `quantiles` must be (low, high) with 0 <= low <= high <= 1, got "
             f"{quantiles}."
         )
+    low, high = (float(q) for q in quantiles)
     n = values.shape[0]
     keep = _successful_mask(successful, n, "plot_envelope") & np.isfinite(values).all(axis=1)
     if keep.any():
