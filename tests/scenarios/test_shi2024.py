@@ -4,7 +4,12 @@ non-increasing; the batch's constant command; bad variants.
 
 Tolerances: the claims compare settling times that differ by tens of seconds (44 s against
 110 s and 71 s at 1e-2) and peaks that differ by factors of 30-70, far beyond the step's
-effect (settling times move by < 0.1 s between dt = 5e-3 and 1e-3, measured).
+effect (settling times move by < 0.1 s between dt = 5e-3 and 1e-3, measured). Case 2 has no
+observer and a smooth law (tanh in its linear range), so RK4's error is O(dt^4): its times agree
+between dt = 1e-2 and 1e-3 s to 1e-5 s (96.57121 s for the torque, 86.89492 s for the rate at
+1e-3, measured), and the test pins them to 0.1 s. The 2 s between case 2's rate and attitude at
+1e-3 is a near tie (see the gallery): the test asserts the order with a 1 s margin, not a
+number.
 """
 
 import json
