@@ -37,6 +37,9 @@ horizon 250 s; signals saved every 0.1 s. $\tau_{\max} = 10$ N m. The observer r
 simulated $\dot\omega$. Settling times are last exits of $\max_i|\cdot_i|$, where the attitude
 error is the vector part of $\bar q_c^{-1}\otimes q$ against the **final** command (so the
 smoothed cases are timed on the manoeuvre, not on tracking a moving command).
+The torque of Fig. 5 is measured against $-T_d(t)$, the torque that holds the attitude at rest
+([`torque_metrics`][]: last exit of $\max_i|\tau_i + T_{d,i}|$ from 0.1 N m, its largest value
+and the total variation per second over the last 50 s).
 
 `short=True` (CI): dt = 1e-2 s over 150 s, every case, no observer floor sweep.
 
