@@ -142,6 +142,8 @@ def test_torque_metrics_on_a_hand_computed_signal():
     assert float(whole["error_final"]) == 5.0
     # A torque that ends outside the band never settled.
     assert float(shi2024.torque_metrics(ts, u, hold, band=0.01)["settle_time"]) == np.inf
+    with pytest.raises(ValueError, match="`window` must be positive"):
+        shi2024.torque_metrics(ts, u, hold, window=0.0)
 
 
 def test_unshaped_variant_is_the_constant_command():

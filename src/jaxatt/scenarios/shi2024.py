@@ -312,6 +312,8 @@ def torque_metrics(
 
     **Returns:** a dict of the four scalars above.
     """
+    if not float(window) > 0:
+        raise ValueError(f"shi2024.torque_metrics: `window` must be positive, got window={window}.")
     ts = jnp.asarray(ts)
     u = jnp.asarray(u)
     u_hold = jnp.asarray(u_hold)
