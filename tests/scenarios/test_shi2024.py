@@ -4,7 +4,12 @@ non-increasing; the batch's constant command; bad variants.
 
 Tolerances: the claims compare settling times that differ by tens of seconds (44 s against
 110 s and 71 s at 1e-2) and peaks that differ by factors of 30-70, far beyond the step's
-effect (settling times move by < 0.1 s between dt = 5e-3 and 1e-3, measured).
+effect (settling times move by < 0.1 s between dt = 5e-3 and 1e-3, measured). Case 2 has no
+observer and a smooth law (tanh in its linear range), so RK4's error is O(dt^4): its times agree
+between dt = 1e-2 and 1e-3 s to 1e-5 s (96.57121 s for the torque, 86.89492 s for the rate at
+1e-3, measured), and the test pins them to 0.1 s. The 2 s between case 2's rate and attitude at
+1e-3 is a near tie (see the gallery): the test asserts the order with a 1 s margin, not a
+number.
 """
 
 import json
@@ -83,6 +88,64 @@ def test_paper_claims_from_our_numbers(result):
     assert m["case1_no_smoother"]["observer_error_final"] < 0.5
 
 
+def test_case2_order_and_the_torque_claims_from_our_numbers(result):
+    """Fig. 5 and case 2's order, from our numbers. Case 2 (no observer) does not depend on
+    the step: its times agree between dt = 1e-2 s and 1e-3 s to 0.01 s (measured), so the
+    short run shows the full run's 84.9 / 86.9 s and 96.6 s. Case 2's rate leaves its 1e-3 band
+    2 s after the attitude (the tail is a decaying oscillation at 0.62 rad/s in which
+    |w| = 2 |q'|), but settles to 1e-4 before the attitude, which holds T_d with an offset
+    |T_d| / (k_p tau_max + (1 - k_p) tau_max k / p^2), about 1.9e-4. Case 1's torque never
+    enters 0.1 N m of -T_d: the observer cancels the beam's reaction torque b_1 w_1^2 n_1,
+    which rings at 1.0087 rad/s with the beam's own damping. Case 2's torque follows -T_d
+    within 0.1 N m from 96.6 s and does not chatter: |s| / p^2 < 0.05, tanh is linear."""
+    _, m = result
+    c1, c1s, c2 = m["case1_no_smoother"], m["case1_smoother"], m["case2"]
+    assert c2["attitude_settle_time_1e-3"] + 1 < c2["rate_settle_time_1e-3"]
+    assert c2["rate_settle_time_1e-3"] < c2["attitude_settle_time_1e-3"] + 5
+    assert c2["rate_settle_time_1e-4"] < 110 and c2["attitude_settle_time_1e-4"] is None
+    assert 1.5e-4 < c2["attitude_offset_final"] < 2.5e-4 and c1["attitude_offset_final"] < 1e-4
+    assert c1["torque_settle_time_0.1"] is None and c1["torque_error_final"] > 1.0
+    assert c1s["torque_error_final"] < 0.1 * c1["torque_error_final"]
+    assert c2["torque_settle_time_0.1"] == pytest.approx(96.6, abs=0.1)
+    assert c2["torque_error_final"] < 0.1
+    assert c2["torque_variation_rate_final"] < 3 * c2["disturbance_variation_rate_final"]
+    assert c2["tanh_argument_final"] < 0.05
+    claims = m["claims"]
+    assert claims["case2_rate_settles_before_attitude_1e-4"]
+    assert not claims["case2_rate_settles_before_attitude_1e-3"]
+    assert not claims["case1_torque_settles_within_60s_no_smoother"]
+    assert not claims["case1_torque_settles_within_60s_smoother_literal"]
+    assert claims["smoother_reduces_final_torque_error_literal"]
+    assert claims["case2_torque_settles_within_80_to_120s"]
+    assert not claims["case2_torque_chatters_variation_over_10x_disturbance_last_50s"]
+    assert not claims["case1_final_torque_error_below_case2_no_smoother"]
+
+
+def test_torque_metrics_on_a_hand_computed_signal():
+    """Samples every 1 s over 10 s. Axis 1 decays through the 0.1 band between t = 5 (0.5) and
+    t = 6 (0): last exit at 5 + 0.4 / 0.5 = 5.8 s; then it alternates by 0.1 (TV 0.35 over
+    [6, 10]). Axis 2 is a ramp of 0.1 N m/s in both u and u* (no error, TV 0.4). Axis 3 is 0."""
+    ts = np.arange(11.0)
+    u = np.zeros((11, 3))
+    u[:, 0] = [5, 4, 3, 2, 1, 0.5, 0, 0.05, -0.05, 0.05, -0.05]
+    u[:, 1] = 0.1 * ts
+    hold = np.zeros((11, 3))
+    hold[:, 1] = 0.1 * ts
+    out = shi2024.torque_metrics(ts, u, hold, band=0.1, window=4.0)
+    assert float(out["settle_time"]) == pytest.approx(5.8, abs=1e-12)
+    assert float(out["error_final"]) == pytest.approx(0.05, abs=1e-12)
+    assert float(out["variation_rate"]) == pytest.approx((0.35 + 0.4) / 4, abs=1e-12)
+    assert float(out["hold_variation_rate"]) == pytest.approx(0.4 / 4, abs=1e-12)
+    # A window longer than the record takes it whole: TV 5 + 0.35 on axis 1, 1.0 on axis 2.
+    whole = shi2024.torque_metrics(ts, u, hold, band=0.1, window=100.0)
+    assert float(whole["variation_rate"]) == pytest.approx((5.35 + 1.0) / 10, abs=1e-12)
+    assert float(whole["error_final"]) == 5.0
+    # A torque that ends outside the band never settled.
+    assert float(shi2024.torque_metrics(ts, u, hold, band=0.01)["settle_time"]) == np.inf
+    with pytest.raises(ValueError, match="`window` must be positive"):
+        shi2024.torque_metrics(ts, u, hold, window=0.0)
+
+
 def test_unshaped_variant_is_the_constant_command():
     """The batch's unshaped command (a step from the target to itself) is the constant command
     exactly: q_c = [1, 0, 0, 0], omega_d = omega_d' = 0 at every time, whatever the smoother."""
@@ -142,6 +205,12 @@ def test_a_failed_case_supports_no_claim():
         "attitude_settle_time_1e-2": 40.0,
         "rate_settle_time_1e-3": 50.0,
         "attitude_settle_time_1e-3": 55.0,
+        "rate_settle_time_1e-4": 60.0,
+        "attitude_settle_time_1e-4": 65.0,
+        "torque_settle_time_0.1": 50.0,
+        "torque_error_final": 0.05,
+        "torque_variation_rate_final": 0.02,
+        "disturbance_variation_rate_final": 0.02,
         "overshoot": [0.1, 0.1, 0.1],
         "peak_slosh": 1.0,
         "peak_modal_n1": 1.0,
@@ -155,6 +224,27 @@ def test_a_failed_case_supports_no_claim():
     assert not claims["case2_slower_than_case1_attitude_1e-3"]
     assert not claims["case2_slower_than_case1_rate_1e-3"]
     assert claims["smoother_halves_slosh_literal"] and claims["smoother_reduces_overshoot_literal"]
+    # A failed case 2 whose numbers would meet every case-2 criterion supports none of them.
+    meets = run | {
+        "torque_settle_time_0.1": 100.0,
+        "torque_error_final": 1.0,
+        "torque_variation_rate_final": 1.0,
+        "rate_settle_time_1e-3": 50.0,
+        "attitude_settle_time_1e-3": 90.0,
+        "rate_settle_time_1e-4": 60.0,
+        "attitude_settle_time_1e-4": 100.0,
+    }
+    case2_keys = (
+        "case2_rate_settles_before_attitude_1e-3",
+        "case2_rate_settles_before_attitude_1e-4",
+        "case2_torque_settles_within_80_to_120s",
+        "case2_torque_chatters_variation_over_10x_disturbance_last_50s",
+        "case1_final_torque_error_below_case2_no_smoother",
+    )
+    both = {"case1_no_smoother": run, "case1_smoother": smoothed}
+    assert all(shi2024.claims(both | {"case2": meets})[key] for key in case2_keys)
+    failed_claims = shi2024.claims(both | {"case2": meets | {"result": "nonfinite_state"}})
+    assert not any(failed_claims[key] for key in case2_keys)
 
 
 def test_a_failed_case1_recheck_is_reported_as_failed(tmp_path, monkeypatch):
