@@ -40,6 +40,7 @@ from ..simulation import (
     samples_at_once,
 )
 from ..simulation._compiled import compiled
+from ..simulation._memory import check_saved_memory
 from ..simulation._simulate import any_traced, check_closed_loop
 from ._summary import MonteCarloResult
 
@@ -602,7 +603,9 @@ def monte_carlo(
       (`save_every=1`, metrics at every step) costs about what the sparsest save costs, with
       the same values as reducing the saved trajectory (to round-off: the order of a sum). A
       metric function, or a metric object without a streaming form, is reduced from the
-      saved trajectory instead.
+      saved trajectory instead. Saved trajectories that cannot fit in memory (every sample's
+      when kept, the samples in flight otherwise) are refused before compiling, with the
+      size they need.
     - `batch_size`: `lax.map` chunk size (memory); `shard`: see above.
     - `performance`: a [`jaxatt.simulation.Performance`][]; by default the loop is
       scalarized on CPU for 1000 or more samples run at once per device.
@@ -637,6 +640,21 @@ def monte_carlo(
     at_once = samples_at_once(n, batch_size=batch_size, devices=max(1, len(devices)))
     sim = sim.with_performance(sim.performance.resolve(at_once))
     xs = (x0s, batched)
+    stream = not keep_trajectories and streamable(metrics)
+    if not stream and not any_traced(xs):
+        # Kept, every sample's trajectory is returned; reduced afterwards (metrics that cannot
+        # stream), `at_once` of them are in flight.
+        one = jtu.tree_map(lambda a: jax.ShapeDtypeStruct(a.shape[1:], a.dtype), xs)
+        check_saved_memory(
+            where,
+            loop if batched is None else eqx.combine(one[1], loop),
+            one[0],
+            sim,
+            samples=n if keep_trajectories else at_once,
+            remedy=", or leave `keep_trajectories` off (the metrics stream)"
+            if keep_trajectories
+            else ", or lower `batch_size` (the samples in flight)",
+        )
     sharding = None
     padded = n
     if len(devices) > 1 and not any_traced(xs):
@@ -655,7 +673,7 @@ def monte_carlo(
         keep_trajectories=keep_trajectories,
         batch_size=batch_size,
         sharding=sharding,
-        stream=not keep_trajectories and streamable(metrics),
+        stream=stream,
     )
     if padded != n:
         out = jtu.tree_map(lambda x: x[:n], out)

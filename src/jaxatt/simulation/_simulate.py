@@ -10,6 +10,7 @@ from .._validation import check_flag, is_traced
 from ._closed_loop import AbstractClosedLoop
 from ._compiled import compiled
 from ._loop import integrate
+from ._memory import check_saved_memory
 from ._performance import Performance
 from ._sampling import AbstractSampling, Continuous
 from ._settings import Simulation
@@ -100,10 +101,13 @@ def simulate(
 
     Before compiling, the controller's `check_initial` sees the concrete initial state, so an
     inadmissible start (e.g. outside a rate barrier) is refused with a `ValueError` that says
-    why. `simulate` is compiled with `eqx.filter_jit`, works under `jax.vmap` (batch outside)
-    and is differentiable (`jax.grad`/`eqx.filter_grad`) with respect to every array in
-    `closed_loop` and `x0`. After each completed step the discrete updates run (MRP shadow
-    switch, quaternion renormalization, controller memories), never between solver stages.
+    why, and so is a trajectory that cannot fit in memory (saves x the bytes of one record
+    (loop state, signals, time) beyond the host's physical memory, or a GPU's: raise
+    `save_every`, shorten the horizon or raise `dt`). `simulate` is compiled with
+    `eqx.filter_jit`, works under `jax.vmap` (batch outside) and is differentiable
+    (`jax.grad`/`eqx.filter_grad`) with respect to every array in `closed_loop` and `x0`.
+    After each completed step the discrete updates run (MRP shadow switch, quaternion
+    renormalization, controller memories), never between solver stages.
     The compiled program holds no host callback; failures are raised here, on the host.
     """
     check_closed_loop("simulate", closed_loop)
@@ -124,6 +128,7 @@ def simulate(
     x0 = closed_loop.check_state(x0, "x0")
     if not any_traced((closed_loop, x0)):
         closed_loop.check_initial(sim.t0, x0)
+        check_saved_memory("simulate", closed_loop, x0, sim)
     sim = sim.with_performance(sim.performance.resolve(1))
     traj = compiled(integrate, sim.performance, (closed_loop, x0))(closed_loop, x0, sim)
     return raise_on_failure(traj) if throw else traj
