@@ -175,6 +175,39 @@ def test_bad_variants_and_tuning_sizes_are_refused(tmp_path):
         shi2024_tuning.VibrationObjective(-1.0)
 
 
+def test_resume_needs_a_checkpoint_and_continues_the_weights_that_have_one(tmp_path, monkeypatch):
+    # `resume=True` with no weight's checkpoint in the folder is refused before anything runs
+    # (it used to start every weight afresh, quietly); with some, those weights resume and
+    # the later ones (not started when the run was interrupted) start afresh. The tuning and
+    # the checks are stood in (no simulation).
+    from jaxatt import tune
+
+    with pytest.raises(tune.NoCheckpointError, match=r"checkpoint_w0\.eqx, checkpoint_w100\.eqx"):
+        shi2024_tuning.run(tmp_path / "empty", resume=True, weights=(0.0, 100.0))
+    assert not (tmp_path / "empty").exists()
+
+    resumed = {}
+
+    def fake_tune(template, parameters, objective, inputs, *, checkpoint, resume, **kwargs):
+        resumed[checkpoint.name] = resume
+        gains = {k: np.asarray(p.where(template)) for k, p in parameters.items()}
+        return tune.TuneResult(template, gains, gains, np.array([1.0]), 1)
+
+    aux = {"convergence_time": np.array([50.0]), "residual_modal_energy": np.array([0.01])}
+    monkeypatch.setattr(tune, "tune", fake_tune)
+    monkeypatch.setattr(tune, "evaluate", lambda module, objective, inputs: (None, aux))
+    case1 = dict.fromkeys(
+        ("attitude_settle_time_1e-2", "peak_modal_n1", "residual_modal_energy_after_150s"), 1.0
+    )
+    monkeypatch.setattr(
+        shi2024_tuning, "case1_check", lambda gains: case1 | {"result": "successful"}
+    )
+    monkeypatch.setattr(shi2024_tuning, "_plot", lambda out, report: None)
+    (tmp_path / "checkpoint_w0.eqx").write_bytes(b"")
+    shi2024_tuning.run(tmp_path, resume=True, weights=(0.0, 100.0))
+    assert resumed == {"checkpoint_w0.eqx": True, "checkpoint_w100.eqx": False}
+
+
 def test_a_failed_sample_makes_the_vibration_loss_inf(monkeypatch):
     # The library's rule for objectives: a failed sample gives an inf loss (`tune` stops on
     # it). Here one of two samples violated a constraint; its energy, NaN by the failure rule,
