@@ -46,6 +46,8 @@ def test_metrics_json_and_model_data(result):
     out, metrics = result
     assert REGISTRY["shi2024"] is shi2024.SCENARIO
     on_disk = json.loads((out / "metrics.json").read_text())
+    # The returned dict is the file (scenarios/_io.py).
+    assert on_disk == metrics
     # Cantilever frequencies in closed form, beta_i^2 sqrt(EI / rho A) / l^2 with the classical
     # roots of cos(x) cosh(x) = -1 (Blevins) and the paper's beam (EI = 7e10 * 3e-9 N m^2,
     # rho A = 2.8e3 * 1.125e-2 kg/m, l = 3 m); the digits were pasted from the output before.
@@ -193,7 +195,8 @@ def test_resume_needs_a_checkpoint_and_continues_the_weights_that_have_one(tmp_p
         gains = {k: np.asarray(p.where(template)) for k, p in parameters.items()}
         return tune.TuneResult(template, gains, gains, np.array([1.0]), 1)
 
-    aux = {"convergence_time": np.array([50.0]), "residual_modal_energy": np.array([0.01])}
+    # A convergence time that never came (inf): None in the returned report, as in the file.
+    aux = {"convergence_time": np.array([np.inf]), "residual_modal_energy": np.array([0.01])}
     monkeypatch.setattr(tune, "tune", fake_tune)
     monkeypatch.setattr(tune, "evaluate", lambda module, objective, inputs: (None, aux))
     case1 = dict.fromkeys(
@@ -204,8 +207,10 @@ def test_resume_needs_a_checkpoint_and_continues_the_weights_that_have_one(tmp_p
     )
     monkeypatch.setattr(shi2024_tuning, "_plot", lambda out, report: None)
     (tmp_path / "checkpoint_w0.eqx").write_bytes(b"")
-    shi2024_tuning.run(tmp_path, resume=True, weights=(0.0, 100.0))
+    report = shi2024_tuning.run(tmp_path, resume=True, weights=(0.0, 100.0))
     assert resumed == {"checkpoint_w0.eqx": True, "checkpoint_w100.eqx": False}
+    assert report == json.loads((tmp_path / "tuning.json").read_text())  # scenarios/_io.py
+    assert report["points"][0]["convergence_time"] is None
 
 
 def test_a_failed_sample_makes_the_vibration_loss_inf(monkeypatch):

@@ -17,7 +17,9 @@ class Scenario:
     - `title`: one line, shown by `jaxatt list`.
     - `build(**options) -> AbstractClosedLoop`: the closed loop, with the paper's parameters.
     - `reproduce(out_dir, *, short=False, progress=False) -> dict`: simulate, write figures
-      and `metrics.json` to `out_dir`, return the metrics. `short=True` is the CI mode.
+      and `metrics.json` to `out_dir`, return the metrics exactly as the file holds them
+      (`None` where the file has `null`: a time that never came; see `scenarios._io`).
+      `short=True` is the CI mode.
     - `metrics(traj) -> dict`: the per-trajectory metrics `metrics.json` reports.
     """
 
@@ -33,7 +35,8 @@ class TuningProblem:
     """A tuning problem (`jaxatt tune NAME`).
 
     `run(out_dir, *, samples, steps, validation_samples, resume, progress) -> dict` tunes,
-    validates on a held-out batch and writes a report to `out_dir`. `resume=True` continues
+    validates on a held-out batch and writes a report to `out_dir`; it returns the report as
+    `tuning.json` holds it. `resume=True` continues
     from the checkpoint in `out_dir` and raises [`NoCheckpointError`][jaxatt.tune.NoCheckpointError]
     (before anything is compiled or written) when there is none: never a quiet fresh start.
     A step whose loss is not finite either raises

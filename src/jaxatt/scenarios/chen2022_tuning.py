@@ -226,8 +226,7 @@ def run(
         report["validation"]["before"], report["validation"]["after"]
     )
     _write_report(out, report, result.losses, cdfs)
-    write_json(out / "tuning.json", report)
-    return report
+    return write_json(out / "tuning.json", report)
 
 
 def _write_report(out: pathlib.Path, report: dict, losses, cdfs) -> None:

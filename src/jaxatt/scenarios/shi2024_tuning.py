@@ -297,7 +297,7 @@ def run(
         }
         for p in points
     }
-    write_json(out / "tuning.json", report)
+    written = write_json(out / "tuning.json", report)
     _plot(out, report)
     lines = [
         "# Vibration-aware tuning of Shi 2024's TVSMC and smoother",
@@ -321,7 +321,7 @@ def run(
         "",
     ]
     (out / "report.md").write_text("\n".join(lines))
-    return report
+    return written
 
 
 def _case1_cells(case1: dict) -> str:

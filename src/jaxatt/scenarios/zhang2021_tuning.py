@@ -256,7 +256,7 @@ def run(
     report["objective_time_reduction"] = objective_time_reduction(
         report["validation"]["before"], report["validation"]["after"]
     )
-    write_json(out / "tuning.json", report)
+    written = write_json(out / "tuning.json", report)
     lines = [
         f"# Tuning Zhang 2021's {problem} envelopes and surface gains with autodiff",
         "",
@@ -294,7 +294,7 @@ def run(
         ),
     ]
     (out / "report.md").write_text("\n".join(lines) + "\n")
-    return report
+    return written
 
 
 RECORDED = pathlib.Path(__file__).parent / "results"
