@@ -2,6 +2,7 @@
 
 import json
 
+import numpy as np
 import pytest
 
 from jaxatt import cli
@@ -135,3 +136,96 @@ def test_tune_sizes_must_be_positive_on_the_command_line(option, value, tmp_path
         f"argument {option}: must be a positive integer, got {value!r}" in capsys.readouterr().err
     )
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("name", ["chen2022", "zhang2021", "zhang2021-finite-time", "shi2024"])
+def test_tune_resume_without_a_checkpoint_is_an_error_before_anything_runs(name, tmp_path, capsys):
+    # Regression (review): `jaxatt tune NAME --resume` with no checkpoint in the output folder
+    # (a mistyped --out, a deleted folder) started a fresh run quietly, exit 0: a run the user
+    # thought continued could be published as one.
+    from .helpers import compile_count
+
+    out = tmp_path / "run"
+    compiled = compile_count()
+    assert cli.main(["tune", name, "--resume", "--out", str(out)]) == cli.EXIT_USAGE == 2
+    err = capsys.readouterr().err
+    assert f"jaxatt: tune {name} --resume: no checkpoint to resume from in {out.resolve()}" in err
+    assert "checkpoint" in err.split("looked for ")[1] and "nothing was run" in err
+    assert compile_count() == compiled and not out.exists()  # nothing compiled, nothing made
+
+
+def _stopped_report(tune_module):
+    """A stand-in `tune` that stops at step 3 of a run, as `on_nonfinite="stop"` does."""
+
+    def fake_tune(template, parameters, objective, inputs, *, steps, **kwargs):
+        gains = {k: np.asarray(p.where(template)) for k, p in parameters.items()}
+        return tune_module.TuneResult(
+            module=template,
+            gains=gains,
+            initial_gains=gains,
+            losses=np.array([3.0, 2.0]),
+            steps=2,
+            stopped="tune: at step 3, the loss is inf (stand-in).",
+        )
+
+    return fake_tune
+
+
+@pytest.mark.parametrize("name", ["zhang2021", "zhang2021-finite-time"])
+def test_a_tuning_run_that_stopped_early_exits_non_zero_with_its_report(
+    name, tmp_path, capsys, monkeypatch
+):
+    # Regression (review): a Zhang 2021 run that stopped at a non-finite loss (`stopped` in
+    # its report) exited 0, so a script or CI job took a failed tuning for a success. The
+    # tuning and the held-out evaluation are stood in (no simulation).
+    from jaxatt import tune
+    from jaxatt.scenarios import zhang2021_hover as hover
+
+    aux = {f"settle_time_{g}": np.full(2, 10.0) for g in hover.GROUPS} | {
+        "objective_time": np.full(2, 40.0),
+        "peak_force": np.ones(2),
+        "peak_torque": np.ones(2),
+        "envelope_usage": np.full(2, 0.5),
+        "status": np.zeros(2, int),
+    }
+    monkeypatch.setattr(tune, "tune", _stopped_report(tune))
+    monkeypatch.setattr(tune, "evaluate", lambda module, objective, inputs: (None, aux))
+    args = ["tune", name, "--samples", "2", "--validation-samples", "2", "--steps", "5"]
+    assert cli.main(args + ["--out", str(tmp_path)]) == cli.EXIT_STOPPED == 3
+    captured = capsys.readouterr()
+    assert f"jaxatt: tune {name} did not complete: tune: at step 3" in captured.err
+    assert "the report and the checkpoint hold the last good step" in captured.err
+    # The report is still written, and says so.
+    report = json.loads((tmp_path / "tuning.json").read_text())
+    assert report["stopped"].startswith("tune: at step 3")
+    assert "**Stopped early:**" in (tmp_path / "report.md").read_text()
+    assert str((tmp_path / "report.md").resolve()) in captured.out
+
+
+@pytest.mark.parametrize("name", ["chen2022", "shi2024"])
+def test_a_tuning_run_that_raised_on_a_nonfinite_step_exits_non_zero(
+    name, tmp_path, capsys, monkeypatch
+):
+    # The problems that let `tune.NonFiniteLossError` propagate (no report): a clean message
+    # on stderr and exit status 3, not a traceback that reads like a crash (status 1).
+    from jaxatt import tune
+
+    def fake_tune(*args, **kwargs):
+        raise tune.NonFiniteLossError(3, float("inf"), [], {"k": np.array(1.0)}, (1, 4), True)
+
+    monkeypatch.setattr(tune, "tune", fake_tune)
+    monkeypatch.setattr(tune, "evaluate", lambda module, objective, inputs: (None, {}))
+    args = ["tune", name, "--samples", "1", "--validation-samples", "1", "--steps", "5"]
+    assert cli.main(args + ["--out", str(tmp_path)]) == cli.EXIT_STOPPED
+    err = capsys.readouterr().err
+    assert f"jaxatt: tune {name} did not complete: tune: at step 3, the loss is inf" in err
+    assert f"the checkpoint in {tmp_path.resolve()} holds the last good step" in err
+
+
+def test_the_exit_statuses_are_in_the_help(capsys):
+    with pytest.raises(SystemExit) as info:
+        cli.main(["tune", "--help"])
+    assert info.value.code == 0
+    out = capsys.readouterr().out
+    assert "exit status:" in out and "3  tune: the run did not complete" in out
+    assert "2  bad command line, unknown NAME, or tune --resume without a checkpoint" in out

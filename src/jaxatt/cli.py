@@ -6,6 +6,10 @@ compilation cache (a second run in a new process reuses the compiled programs; f
 keeps jaxatt from turning it on, `--no-cache` turns every persistent cache off, even one that
 JAX's own `JAX_COMPILATION_CACHE_DIR` names), then dispatches to library functions. No numerics
 here.
+
+Exit status (`EXIT_CODES`, also in `--help`): 0 done; 1 an unexpected error; 2 a bad command
+line, an unknown name or `tune --resume` without a checkpoint (nothing run); 3 a `tune` run
+that did not complete (a non-finite step), so that no script or CI job takes it for a success.
 """
 
 import argparse
@@ -13,6 +17,29 @@ import json
 import pathlib
 import sys
 import time
+
+
+EXIT_OK = 0
+"""Every command: done (for `tune`, every optimizer step completed)."""
+EXIT_ERROR = 1
+"""An unexpected error (Python's status for an uncaught exception, with its traceback)."""
+EXIT_USAGE = 2
+"""A bad command line (argparse's status), an unknown scenario or tuning problem, or
+`tune --resume` with no checkpoint in the output folder; nothing was run."""
+EXIT_STOPPED = 3
+"""`tune`: the run did not complete (a step's loss or gradient was not finite); why is on
+stderr. What the problem writes (its report, where it records the stop, and the checkpoint)
+holds the last good step."""
+
+EXIT_CODES = f"""exit status:
+  {EXIT_OK}  done (tune: every optimizer step completed)
+  {EXIT_ERROR}  an unexpected error (traceback on stderr)
+  {EXIT_USAGE}  bad command line, unknown NAME, or tune --resume without a checkpoint in
+     the output folder (nothing was run)
+  {EXIT_STOPPED}  tune: the run did not complete (a non-finite loss or gradient; why is
+     on stderr); the checkpoint, and the report where the problem writes one
+     for a stopped run, hold the last good step
+"""
 
 
 def _enable_x64() -> None:
@@ -42,7 +69,7 @@ def _cmd_list(args: argparse.Namespace) -> int:
 
     for name, scenario in REGISTRY.items():
         print(f"{name:24s} {scenario.title}")
-    return 0
+    return EXIT_OK
 
 
 def _run_scenario(name: str, out: pathlib.Path, short: bool) -> int:
@@ -54,14 +81,14 @@ def _run_scenario(name: str, out: pathlib.Path, short: bool) -> int:
             f"jaxatt: unknown scenario {name!r}; available: {', '.join(REGISTRY)}",
             file=sys.stderr,
         )
-        return 2
+        return EXIT_USAGE
     start = time.perf_counter()
     print(f"[jaxatt] {name}: compiling and simulating (float64)...", flush=True)
     metrics = REGISTRY[name].reproduce(out, short=short, progress=True)
     elapsed = time.perf_counter() - start
     print(json.dumps(json_safe(metrics), indent=2, allow_nan=False))
     print(f"[jaxatt] done in {elapsed:.1f} s; figures and metrics.json written to {out.resolve()}")
-    return 0
+    return EXIT_OK
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
@@ -86,7 +113,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         f"[jaxatt] done in {time.perf_counter() - start:.1f} s; report: "
         f"{(out / 'report.md').resolve()}"
     )
-    return 0
+    return EXIT_OK
 
 
 def _settling(stats: dict) -> str:
@@ -103,13 +130,14 @@ def _settling(stats: dict) -> str:
 def _cmd_tune(args: argparse.Namespace) -> int:
     from .scenarios import TUNING
     from .scenarios._io import json_safe
+    from .tune import NoCheckpointError, NonFiniteLossError
 
     if args.name not in TUNING:
         print(
             f"jaxatt: no tuning problem {args.name!r}; available: {', '.join(TUNING)}",
             file=sys.stderr,
         )
-        return 2
+        return EXIT_USAGE
     out = pathlib.Path(args.out) if args.out else pathlib.Path("jaxatt-out") / f"tune-{args.name}"
     # Sizes left unset take the problem's own defaults (a 6-DOF pose costs far more per
     # sample than a rigid body, so one default cannot fit every problem).
@@ -122,7 +150,26 @@ def _cmd_tune(args: argparse.Namespace) -> int:
         )
         if v is not None
     }
-    report = TUNING[args.name].run(out, resume=args.resume, progress=True, **sizes)
+    try:
+        report = TUNING[args.name].run(out, resume=args.resume, progress=True, **sizes)
+    except NoCheckpointError as error:
+        looked = ", ".join(path.name for path in error.paths)
+        print(
+            f"jaxatt: tune {args.name} --resume: no checkpoint to resume from in "
+            f"{out.resolve()} (looked for {looked}); nothing was run. Leave out --resume to "
+            "start a fresh run, or pass the --out folder of the run to continue.",
+            file=sys.stderr,
+        )
+        return EXIT_USAGE
+    except NonFiniteLossError as error:
+        # The problem raises (it writes no report); the checkpoint holds the last good step.
+        print(
+            f"jaxatt: tune {args.name} did not complete: {error}\n"
+            f"jaxatt: no report was written; the checkpoint in {out.resolve()} holds the last "
+            "good step.",
+            file=sys.stderr,
+        )
+        return EXIT_STOPPED
     print(
         json.dumps(
             json_safe({k: report[k] for k in ("gains_before", "gains_after", "validation")}),
@@ -130,10 +177,17 @@ def _cmd_tune(args: argparse.Namespace) -> int:
             allow_nan=False,
         )
     )
-    if report.get("stopped"):
-        print(f"[jaxatt] tuning stopped early: {report['stopped']}")
     print(f"[jaxatt] report written to {(out / 'report.md').resolve()}")
-    return 0
+    if report.get("stopped"):
+        # The problem stopped at a non-finite step and reported it: the report and the
+        # checkpoint hold the last good step, and the run must not read as a success.
+        print(
+            f"jaxatt: tune {args.name} did not complete: {report['stopped']}\n"
+            "jaxatt: the report and the checkpoint hold the last good step.",
+            file=sys.stderr,
+        )
+        return EXIT_STOPPED
+    return EXIT_OK
 
 
 def _positive_int(text: str) -> int:
@@ -155,6 +209,8 @@ def build_parser() -> argparse.ArgumentParser:
             "Differentiable spacecraft attitude control in JAX. Throughput benchmarks live in "
             "the repository's benchmarks/ (python benchmarks/bench_quick.py)."
         ),
+        epilog=EXIT_CODES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     sub = parser.add_subparsers(dest="command", required=True)
     # Options every compiling command takes (after the command name).
@@ -192,7 +248,15 @@ def build_parser() -> argparse.ArgumentParser:
     rep.add_argument("--short", action="store_true", help="short mode (CI)")
     rep.set_defaults(func=_cmd_reproduce)
     tun = sub.add_parser(
-        "tune", parents=[cache], help="tune a scenario's gains with autodiff; write a report"
+        "tune",
+        parents=[cache],
+        help="tune a scenario's gains with autodiff; write a report",
+        description=(
+            "Tune a problem's gains with autodiff, validate them on a held-out batch and write "
+            "a report and a checkpoint to the output folder."
+        ),
+        epilog=EXIT_CODES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     tun.add_argument(
         "name", help="tuning problem (chen2022, zhang2021, zhang2021-finite-time, shi2024)"
@@ -207,7 +271,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="held-out batch size, fresh key (default: the problem's)",
     )
     tun.add_argument("--out", help="output folder (default ./jaxatt-out/tune-NAME)")
-    tun.add_argument("--resume", action="store_true", help="continue from the checkpoint")
+    tun.add_argument(
+        "--resume",
+        action="store_true",
+        help=(
+            "continue the run whose checkpoint is in the output folder; without one, an error "
+            "(exit 2) before anything runs, never a fresh start"
+        ),
+    )
     tun.set_defaults(func=_cmd_tune)
     return parser
 

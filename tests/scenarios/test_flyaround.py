@@ -1,6 +1,8 @@
 """Fly-around (SPEC 001(a)): the reference's frame and rates against finite differences of its
 own attitude, the short reproduction with its Monte Carlo, bad input."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -17,6 +19,8 @@ def short(tmp_path_factory):
 
 def test_short_fly_around_converges_and_every_dispersed_start_does_too(short):
     out, m = short
+    # The returned dict is the file (scenarios/_io.py).
+    assert json.loads((out / "metrics.json").read_text()) == m
     nominal, mc = m["nominal"], m["monte_carlo"]
     assert nominal["status"] == 0
     assert nominal["position_settle_time_0.1m"] < 200.0

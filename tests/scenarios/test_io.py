@@ -34,3 +34,13 @@ def test_write_json_refuses_a_nan_that_escapes_the_sanitizer(tmp_path, monkeypat
     monkeypatch.setattr(_io, "json_safe", lambda tree: tree)
     with pytest.raises(ValueError, match="Out of range float values are not JSON compliant"):
         _io.write_json(tmp_path / "m.json", {"x": math.nan})
+
+
+def test_write_json_returns_what_a_reader_of_the_file_gets(tmp_path):
+    # Every reproduce() returns this, so the dict a notebook reads and the file a script reads
+    # agree: None where the file has null (a time that never came, computed as inf), lists
+    # where the tree had tuples or arrays.
+    tree = {"never": math.inf, "t": (1.0, np.float64(2.5)), "a": np.array([np.nan, 1.0])}
+    returned = _io.write_json(tmp_path / "m.json", tree)
+    assert returned == json.loads((tmp_path / "m.json").read_text())
+    assert returned == {"never": None, "t": [1.0, 2.5], "a": [None, 1.0]}

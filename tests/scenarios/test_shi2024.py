@@ -46,6 +46,8 @@ def test_metrics_json_and_model_data(result):
     out, metrics = result
     assert REGISTRY["shi2024"] is shi2024.SCENARIO
     on_disk = json.loads((out / "metrics.json").read_text())
+    # The returned dict is the file (scenarios/_io.py).
+    assert on_disk == metrics
     # Cantilever frequencies in closed form, beta_i^2 sqrt(EI / rho A) / l^2 with the classical
     # roots of cos(x) cosh(x) = -1 (Blevins) and the paper's beam (EI = 7e10 * 3e-9 N m^2,
     # rho A = 2.8e3 * 1.125e-2 kg/m, l = 3 m); the digits were pasted from the output before.
@@ -173,6 +175,42 @@ def test_bad_variants_and_tuning_sizes_are_refused(tmp_path):
         shi2024_tuning.run(tmp_path, samples=256)
     with pytest.raises(ValueError, match="weight"):
         shi2024_tuning.VibrationObjective(-1.0)
+
+
+def test_resume_needs_a_checkpoint_and_continues_the_weights_that_have_one(tmp_path, monkeypatch):
+    # `resume=True` with no weight's checkpoint in the folder is refused before anything runs
+    # (it used to start every weight afresh, quietly); with some, those weights resume and
+    # the later ones (not started when the run was interrupted) start afresh. The tuning and
+    # the checks are stood in (no simulation).
+    from jaxatt import tune
+
+    with pytest.raises(tune.NoCheckpointError, match=r"checkpoint_w0\.eqx, checkpoint_w100\.eqx"):
+        shi2024_tuning.run(tmp_path / "empty", resume=True, weights=(0.0, 100.0))
+    assert not (tmp_path / "empty").exists()
+
+    resumed = {}
+
+    def fake_tune(template, parameters, objective, inputs, *, checkpoint, resume, **kwargs):
+        resumed[checkpoint.name] = resume
+        gains = {k: np.asarray(p.where(template)) for k, p in parameters.items()}
+        return tune.TuneResult(template, gains, gains, np.array([1.0]), 1)
+
+    # A convergence time that never came (inf): None in the returned report, as in the file.
+    aux = {"convergence_time": np.array([np.inf]), "residual_modal_energy": np.array([0.01])}
+    monkeypatch.setattr(tune, "tune", fake_tune)
+    monkeypatch.setattr(tune, "evaluate", lambda module, objective, inputs: (None, aux))
+    case1 = dict.fromkeys(
+        ("attitude_settle_time_1e-2", "peak_modal_n1", "residual_modal_energy_after_150s"), 1.0
+    )
+    monkeypatch.setattr(
+        shi2024_tuning, "case1_check", lambda gains: case1 | {"result": "successful"}
+    )
+    monkeypatch.setattr(shi2024_tuning, "_plot", lambda out, report: None)
+    (tmp_path / "checkpoint_w0.eqx").write_bytes(b"")
+    report = shi2024_tuning.run(tmp_path, resume=True, weights=(0.0, 100.0))
+    assert resumed == {"checkpoint_w0.eqx": True, "checkpoint_w100.eqx": False}
+    assert report == json.loads((tmp_path / "tuning.json").read_text())  # scenarios/_io.py
+    assert report["points"][0]["convergence_time"] is None
 
 
 def test_a_failed_sample_makes_the_vibration_loss_inf(monkeypatch):

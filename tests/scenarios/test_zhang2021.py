@@ -29,6 +29,8 @@ def reproduction(tmp_path_factory):
 def test_metrics_json_has_the_keys_the_issue_reads(reproduction):
     out, metrics = reproduction
     written = json.loads((out / "metrics.json").read_text())
+    # The returned dict is the file (scenarios/_io.py).
+    assert written == metrics
     keys = [f"settle_time_{g}" for g in hover.GROUPS] + [
         "peak_force",
         "peak_torque",
@@ -210,6 +212,7 @@ def test_the_tuning_report_says_when_tuning_stopped_and_never_scores_a_failure(
         tuning, "evaluate", lambda module, obj, x: (None, after if module == "tuned" else before)
     )
     report = zt.run(tmp_path, samples=4, steps=30, validation_samples=4)
+    assert report == json.loads((tmp_path / "tuning.json").read_text())  # scenarios/_io.py
     assert report["objective_time_reduction"] is None
     assert report["validation"]["after"]["violations"] == 1
     assert report["validation"]["after"]["mean_objective_time"] is None

@@ -312,6 +312,21 @@ def test_interrupted_run_resumes_bit_identically(tmp_path):
             )
 
 
+def test_resume_without_a_checkpoint_is_an_error_before_anything_compiles(tmp_path):
+    # Regression (review): `resume=True` with no checkpoint file started a fresh run quietly,
+    # so a run the user believed continued was published as one; `jaxatt tune --resume`
+    # with a wrong --out did the same.
+    loop, x0s, params, objective = _small_problem()
+    path = tmp_path / "missing" / "run.eqx"
+    compiled = compile_count()
+    with pytest.raises(tune.NoCheckpointError, match="`resume=True`") as info:
+        tune.tune(loop, params, objective, x0s, steps=2, checkpoint=path, resume=True)
+    assert isinstance(info.value, FileNotFoundError)
+    assert str(path) in str(info.value) and info.value.paths == [path]
+    assert compile_count() == compiled  # refused before anything compiled
+    assert not path.parent.exists()  # nor written
+
+
 @pytest.mark.parametrize(
     "change, needle",
     [

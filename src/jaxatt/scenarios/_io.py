@@ -1,7 +1,15 @@
-"""The one writer of the scenarios' JSON reports (`metrics.json`, `tuning.json`).
+"""The one writer of the scenarios' JSON reports (`metrics.json`, `tuning.json`,
+`summary.json`).
 
-A scenario returns its metrics as computed (an unsettled time is `inf`); the file holds their
-JSON-safe form, `json_safe` of the returned dict (`inf` and NaN as `null`)."""
+One representation, in the file and in Python: every `reproduce()` (and tuning `run()`, and the
+demo) returns what `write_json` returns, which is exactly what `json.load` reads back from the
+file it wrote. A number that is not finite is `null` in the file and `None` in the returned
+dict: for a time (a settling, convergence or entry time) it means never, the event did not
+happen within the horizon (computed as `inf`). For another field, its docstring says what its
+`null` stands for: a value that is not finite (NaN for an inconclusive LMI bound in
+`duan2024`), a field that does not apply (`observer_error_final` without an observer) or a
+stage short mode skips. Tuples and arrays are lists, NumPy scalars Python numbers
+(docs/getting-started.md states this for users)."""
 
 import json
 import pathlib
@@ -9,8 +17,12 @@ import pathlib
 from .._json import json_safe as json_safe
 
 
-def write_json(path: str | pathlib.Path, tree) -> None:
-    """Write `tree` to `path` as strict JSON (indent 2): non-finite floats become `null`
-    (`json_safe`), and the encoder runs with `allow_nan=False`, so a NaN or infinity that
-    reaches it another way raises `ValueError` instead of writing invalid JSON."""
-    pathlib.Path(path).write_text(json.dumps(json_safe(tree), indent=2, allow_nan=False))
+def write_json(path: str | pathlib.Path, tree):
+    """Write `tree` to `path` as strict JSON (indent 2) and return what a reader of the file
+    gets (`json.loads` of the text written): non-finite floats become `null`/`None`
+    (`json_safe`), tuples and arrays lists. The encoder runs with `allow_nan=False`, so a NaN
+    or infinity that reaches it another way raises `ValueError` instead of writing invalid
+    JSON."""
+    text = json.dumps(json_safe(tree), indent=2, allow_nan=False)
+    pathlib.Path(path).write_text(text)
+    return json.loads(text)

@@ -2,9 +2,11 @@
 tuning problems (`jaxatt tune NAME`)."""
 
 import dataclasses
-from collections.abc import Callable
+import pathlib
+from collections.abc import Callable, Sequence
 
 from ..simulation import AbstractClosedLoop, Trajectory
+from ..tune import NoCheckpointError
 
 
 @dataclasses.dataclass(frozen=True)
@@ -15,7 +17,9 @@ class Scenario:
     - `title`: one line, shown by `jaxatt list`.
     - `build(**options) -> AbstractClosedLoop`: the closed loop, with the paper's parameters.
     - `reproduce(out_dir, *, short=False, progress=False) -> dict`: simulate, write figures
-      and `metrics.json` to `out_dir`, return the metrics. `short=True` is the CI mode.
+      and `metrics.json` to `out_dir`, return the metrics exactly as the file holds them
+      (`None` where the file has `null`: a time that never came; see `scenarios._io`).
+      `short=True` is the CI mode.
     - `metrics(traj) -> dict`: the per-trajectory metrics `metrics.json` reports.
     """
 
@@ -31,9 +35,33 @@ class TuningProblem:
     """A tuning problem (`jaxatt tune NAME`).
 
     `run(out_dir, *, samples, steps, validation_samples, resume, progress) -> dict` tunes,
-    validates on a held-out batch and writes a report to `out_dir`.
+    validates on a held-out batch and writes a report to `out_dir`; it returns the report as
+    `tuning.json` holds it. `resume=True` continues
+    from the checkpoint in `out_dir` and raises [`NoCheckpointError`][jaxatt.tune.NoCheckpointError]
+    (before anything is compiled or written) when there is none: never a quiet fresh start.
+    A step whose loss is not finite either raises
+    [`NonFiniteLossError`][jaxatt.tune.NonFiniteLossError] or ends the run early with the
+    reason in the report's `stopped` (the problem's docstring says which); `jaxatt tune`
+    exits non-zero on both.
     """
 
     name: str
     title: str
     run: Callable[..., dict]
+
+
+def require_checkpoint(where: str, out_dir: str | pathlib.Path, names: Sequence[str]) -> None:
+    """For a tuning problem's `run(out_dir, resume=True)`: raise
+    [`NoCheckpointError`][jaxatt.tune.NoCheckpointError] naming `resume` and `out_dir` unless
+    at least one of the checkpoint files `names` is in `out_dir`. Called first, before the
+    folder is made or anything is compiled."""
+    out = pathlib.Path(out_dir)
+    paths = [out / name for name in names]
+    if not any(path.is_file() for path in paths):
+        looked = ", ".join(names)
+        raise NoCheckpointError(
+            f"{where}: `resume=True` (CLI: --resume), but there is no checkpoint to resume from "
+            f"in {str(out)!r} (looked for {looked}); nothing was run. Leave resume out (or "
+            "pass resume=False) to start afresh.",
+            paths,
+        )

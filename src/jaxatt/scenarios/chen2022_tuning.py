@@ -31,7 +31,7 @@ from ..plants import QuaternionState
 from ..simulation import ClosedLoop
 from . import chen2022_two_phase_power as chen
 from ._io import write_json
-from ._protocol import TuningProblem
+from ._protocol import TuningProblem, require_checkpoint
 
 
 MAX_ANGLE = np.pi / 3
@@ -161,12 +161,18 @@ def run(
     """Tune, validate on a held-out batch, and write a report to `out_dir`.
 
     Writes `report.md`, `tuning.json`, `loss.png`, `settling_cdf.png` and the checkpoint
-    `checkpoint.eqx` (so `resume=True` continues an interrupted run exactly).
+    `checkpoint.eqx` (so `resume=True` continues an interrupted run exactly; without that
+    file, `resume=True` raises [`NoCheckpointError`][jaxatt.tune.NoCheckpointError] before
+    anything runs). A step whose loss or gradient is not finite raises
+    [`NonFiniteLossError`][jaxatt.tune.NonFiniteLossError] (the checkpoint keeps the last good
+    step; no report is written).
 
     **Returns:** the dictionary written to `tuning.json` (gains before/after, the nearest
     odd-integer ratios of the tuned exponents, held-out metrics before/after at the tuning
     step and, with `validate_at_paper_step`, at the paper's dt = 1e-3 s; the loss history).
     """
+    if resume:
+        require_checkpoint("chen2022_tuning", out_dir, ["checkpoint.eqx"])
     out = pathlib.Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     template = chen.build("M1") if template is None else template
@@ -220,8 +226,7 @@ def run(
         report["validation"]["before"], report["validation"]["after"]
     )
     _write_report(out, report, result.losses, cdfs)
-    write_json(out / "tuning.json", report)
-    return report
+    return write_json(out / "tuning.json", report)
 
 
 def _write_report(out: pathlib.Path, report: dict, losses, cdfs) -> None:

@@ -238,8 +238,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
             metrics[case][name] = {key: _to_json(v) for key, v in values.items()}
             metrics[case][name]["successful"] = bool(one.successful)
     _write_figures(out, trajs)
-    write_json(out / "metrics.json", metrics)
-    return metrics
+    return write_json(out / "metrics.json", metrics)
 
 
 def _write_figures(out: pathlib.Path, trajs: dict[str, Trajectory]) -> None:

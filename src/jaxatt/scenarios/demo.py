@@ -115,9 +115,9 @@ def run(
         },
         "timings_s": timings,
     }
-    write_json(out / "summary.json", summary)
+    written = write_json(out / "summary.json", summary)
     _write_report(out, summary, n, tuning)
-    return summary
+    return written
 
 
 def _fmt(value) -> str:

@@ -451,8 +451,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
     }
     metrics["timings"] = timings
     _write_figures(out, trajs, exact, metrics)
-    write_json(out / "metrics.json", metrics)
-    return metrics
+    return write_json(out / "metrics.json", metrics)
 
 
 def _write_figures(out: pathlib.Path, trajs: dict, exact: dict, metrics: dict) -> None:

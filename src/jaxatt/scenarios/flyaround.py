@@ -257,8 +257,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
         "monte_carlo": _summary(rest, seed, horizon),
     }
     _write_figures(out, nominal)
-    write_json(out / "metrics.json", metrics)
-    return metrics
+    return write_json(out / "metrics.json", metrics)
 
 
 def _write_figures(out: pathlib.Path, traj: Trajectory) -> None:

@@ -151,8 +151,7 @@ def reproduce(
         ax.legend()
         fig.savefig(out / "montecarlo.png")
         plt.close(fig)
-    write_json(out / "metrics.json", metrics)
-    return metrics
+    return write_json(out / "metrics.json", metrics)
 
 
 def monte_carlo_summary(batch_metrics: dict, successful) -> dict:

@@ -726,8 +726,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
     metrics["observer_floor"] = None if short else observer_floor()
     metrics["claims"] = claims(metrics)
     _write_figures(out, runs, metrics["observer_floor"])
-    write_json(out / "metrics.json", metrics)
-    return metrics
+    return write_json(out / "metrics.json", metrics)
 
 
 LABELS = {

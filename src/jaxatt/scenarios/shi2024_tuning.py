@@ -41,7 +41,7 @@ from ..rotations import attitude_error_quat
 from ..simulation import AbstractClosedLoop, ClosedLoop, Simulation, Status, integrate
 from . import shi2024
 from ._io import write_json
-from ._protocol import TuningProblem
+from ._protocol import TuningProblem, require_checkpoint
 
 
 TOLERANCE = 1e-2
@@ -210,13 +210,23 @@ def run(
     1`); the held-out check is the paper's case 1 with the observer. `validation` (what
     `jaxatt tune` prints) has, per weight, that check's settle time, peak of n1, residual
     energy and `result` (its status name); `report.md` writes a check that did not end
-    successfully as failed, not as its numbers."""
+    successfully as failed, not as its numbers.
+
+    Each weight has its checkpoint, `checkpoint_w<w>.eqx`. `resume=True` needs at least one of
+    them in `out_dir` ([`NoCheckpointError`][jaxatt.tune.NoCheckpointError] before anything
+    runs, otherwise); a weight without one had not started (the weights run in order) and
+    starts afresh. A step whose loss or gradient is not finite raises
+    [`NonFiniteLossError`][jaxatt.tune.NonFiniteLossError] (that weight's checkpoint keeps its
+    last good step; no report is written)."""
     if samples != 1 or validation_samples != 1:
         raise ValueError(
             "shi2024_tuning: the problem is deterministic (the paper's initial state): "
             f"`samples` and `validation_samples` must be 1, got {samples} and "
             f"{validation_samples} (CLI: --samples 1 --validation-samples 1)."
         )
+    checkpoints = {w: f"checkpoint_w{w:g}.eqx" for w in weights}
+    if resume:
+        require_checkpoint("shi2024_tuning", out_dir, list(checkpoints.values()))
     out = pathlib.Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     x0s = initial_states(samples)
@@ -232,8 +242,8 @@ def run(
             x0s,
             steps=steps,
             optimizer=_OPTIMIZER,
-            checkpoint=out / f"checkpoint_w{w:g}.eqx",
-            resume=resume,
+            checkpoint=out / checkpoints[w],
+            resume=resume and (out / checkpoints[w]).is_file(),
             progress=progress,
         )
         _, aux = tuning.evaluate(result.module, start_obj, x0s)
@@ -287,7 +297,7 @@ def run(
         }
         for p in points
     }
-    write_json(out / "tuning.json", report)
+    written = write_json(out / "tuning.json", report)
     _plot(out, report)
     lines = [
         "# Vibration-aware tuning of Shi 2024's TVSMC and smoother",
@@ -311,7 +321,7 @@ def run(
         "",
     ]
     (out / "report.md").write_text("\n".join(lines))
-    return report
+    return written
 
 
 def _case1_cells(case1: dict) -> str:

@@ -437,8 +437,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
         "outside": monte_carlo_summary(_take(on, slice(2 + n, None)), outside),
     }
     _write_figures(out, on, off, direct, n)
-    write_json(out / "metrics.json", metrics)
-    return metrics
+    return write_json(out / "metrics.json", metrics)
 
 
 def _meridian(traj_rho: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

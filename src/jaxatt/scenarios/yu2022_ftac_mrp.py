@@ -454,8 +454,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
             **{name: monte_carlo_summary(mc[name]) for name in ("FTAC", "FT")},
         }
     _write_figures(out, trajs, mc)
-    write_json(out / "metrics.json", metrics)
-    return metrics
+    return write_json(out / "metrics.json", metrics)
 
 
 def _result_name(traj: Trajectory) -> str:

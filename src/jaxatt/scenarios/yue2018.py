@@ -335,8 +335,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
         m["claims"] = claims(m)
         metrics[name] = m
     _write_figures(out, trajs)
-    write_json(out / "metrics.json", metrics)
-    return metrics
+    return write_json(out / "metrics.json", metrics)
 
 
 def _write_figures(out: pathlib.Path, trajs: dict) -> None:

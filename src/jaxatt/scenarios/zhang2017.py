@@ -304,8 +304,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
             print("[zhang2017] alpha study")
         metrics["alpha_study"] = alpha_study()
     _write_figures(out, trajs)
-    write_json(out / "metrics.json", metrics)
-    return metrics
+    return write_json(out / "metrics.json", metrics)
 
 
 def _write_figures(out: pathlib.Path, trajs: dict) -> None:

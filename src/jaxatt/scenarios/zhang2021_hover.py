@@ -417,11 +417,11 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
         "orbit_rate": orbit_rate(),
         "short": short,
     }
-    write_json(out_dir / "metrics.json", result)
+    written = write_json(out_dir / "metrics.json", result)
     for stem, fig in figures(trajectories).items():
         fig.savefig(out_dir / f"{stem}.png")
         plt.close(fig)
-    return result
+    return written
 
 
 SCENARIO = Scenario(

@@ -50,7 +50,7 @@ from ..plants import RelativePoseState
 from ..simulation import ClosedLoop
 from . import zhang2021_hover as hover
 from ._io import write_json
-from ._protocol import TuningProblem
+from ._protocol import TuningProblem, require_checkpoint
 
 
 PROBLEMS = ("ppc", "finite_time_ppf")
@@ -202,11 +202,16 @@ def run(
 
     A step that would make a training sample fail (an envelope violation: an infinite loss)
     ends the run at the last good step (`tune(..., on_nonfinite="stop")`); the report says so
-    under `stopped`.
+    under `stopped` (`None` for a run that did all its steps), and `jaxatt tune` exits with
+    status 3. `resume=True` continues from `checkpoint.eqx` in `out_dir` and raises
+    [`NoCheckpointError`][jaxatt.tune.NoCheckpointError] before anything runs when it is not
+    there.
 
     **Returns:** the report: gains before/after, held-out summaries before/after (per-group
     mean and worst settling times, peaks, envelope usage, violations), the loss history.
     """
+    if resume:
+        require_checkpoint("zhang2021_tuning", out_dir, ["checkpoint.eqx"])
     out = pathlib.Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     start = template(problem)
@@ -251,7 +256,7 @@ def run(
     report["objective_time_reduction"] = objective_time_reduction(
         report["validation"]["before"], report["validation"]["after"]
     )
-    write_json(out / "tuning.json", report)
+    written = write_json(out / "tuning.json", report)
     lines = [
         f"# Tuning Zhang 2021's {problem} envelopes and surface gains with autodiff",
         "",
@@ -289,7 +294,7 @@ def run(
         ),
     ]
     (out / "report.md").write_text("\n".join(lines) + "\n")
-    return report
+    return written
 
 
 RECORDED = pathlib.Path(__file__).parent / "results"

@@ -13,6 +13,7 @@
 """
 
 from ._checkpoint import (
+    NoCheckpointError as NoCheckpointError,
     TuneState as TuneState,
     load_checkpoint as load_checkpoint,
     save_checkpoint as save_checkpoint,

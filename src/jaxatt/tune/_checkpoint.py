@@ -9,6 +9,23 @@ import numpy as np
 from jaxtyping import Array, Float, Int, PyTree
 
 
+class NoCheckpointError(FileNotFoundError):
+    """Raised when a run asked to resume (`resume=True`, `jaxatt tune --resume`) and there is
+    no checkpoint to resume from, before anything is compiled or written.
+
+    A fresh start would be a different run from the one asked for (its `initial_gains`, loss
+    history and step count would not continue anything), so it is never made quietly; start
+    afresh with `resume=False`, or resume only where a checkpoint exists with
+    `resume=pathlib.Path(checkpoint).exists()`.
+
+    - `paths`: the checkpoint files that were looked for (none exists).
+    """
+
+    def __init__(self, message: str, paths):
+        super().__init__(message)
+        self.paths = [pathlib.Path(p) for p in paths]
+
+
 class TuneState(eqx.Module):
     """Everything a tuning run needs to continue exactly where it stopped."""
 

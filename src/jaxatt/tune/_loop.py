@@ -22,7 +22,7 @@ from .._validation import (
     check_tree_finite,
     host_checked_program,
 )
-from ._checkpoint import TuneState, load_checkpoint, save_checkpoint
+from ._checkpoint import NoCheckpointError, TuneState, load_checkpoint, save_checkpoint
 from ._objective import AbstractObjective
 from ._parameters import apply, check_parameters, constrained, initial_unconstrained
 
@@ -259,8 +259,11 @@ def tune(
     - `optimizer`: an optax transformation; default `optax.adam(0.05)`.
     - `checkpoint`: file for `eqx.tree_serialise_leaves` checkpoints, written every
       `checkpoint_every` steps, at the end, and when interrupted (Ctrl-C).
-    - `resume`: continue from `checkpoint` if it exists. A resumed run ends bit-identical to
-      an uninterrupted one (same inputs, same optimizer; XLA:CPU is deterministic). A
+    - `resume`: continue from `checkpoint`, which must exist: a missing file is a
+      [`NoCheckpointError`][] (a `FileNotFoundError`) raised before anything compiles, never
+      a quiet fresh start (to resume only where a checkpoint exists, pass
+      `resume=pathlib.Path(checkpoint).exists()`). A resumed run ends bit-identical to an
+      uninterrupted one (same inputs, same optimizer; XLA:CPU is deterministic). A
       checkpoint written for another training batch, other starting gains or parameter names
       is a `ValueError` (the rest of the template, the objective and the optimizer's settings
       are not compared).
@@ -279,10 +282,11 @@ def tune(
     **Raises** [`NonFiniteLossError`][] when a step's loss or gradient is not finite (e.g. a
     sample diverged at the current gains): tuning stops at once, naming the step, and the
     checkpoint keeps the last good step. A run never ends with NaN gains.
+    [`NoCheckpointError`][] when `resume=True` and `checkpoint` does not exist.
 
     The configuration is validated before anything is compiled: parameter paths, initial
     values finite and inside their transforms' ranges, a non-empty, finite batch of valid
-    initial states, `steps > 0`.
+    initial states, `steps > 0`, a checkpoint to resume from.
 
     Each step runs two compiled programs: [`loss_and_grad`][] (the closed loop and its reverse
     pass, nearly all the compile time) and the optimizer update (small). Parameters are
@@ -311,6 +315,13 @@ def tune(
         )
     if resume and checkpoint is None:
         raise ValueError("tune: `resume=True` needs a `checkpoint` path.")
+    if resume and not pathlib.Path(checkpoint).is_file():
+        raise NoCheckpointError(
+            f"tune: `resume=True`, but there is no checkpoint {str(checkpoint)!r} to resume "
+            "from (nothing was run). Pass resume=False to start afresh, or "
+            "resume=pathlib.Path(checkpoint).exists() to resume only where one exists.",
+            [checkpoint],
+        )
     if on_nonfinite not in ("raise", "stop"):
         raise ValueError(f"tune: `on_nonfinite` must be 'raise' or 'stop', got {on_nonfinite!r}.")
     _check_mode(mode, objective)
@@ -329,7 +340,7 @@ def tune(
         losses=jnp.full(steps, jnp.nan),
     )
     fingerprint = None if checkpoint is None else _fingerprint(template, parameters, inputs)
-    if resume and checkpoint is not None and pathlib.Path(checkpoint).exists():
+    if resume:
         state = load_checkpoint(checkpoint, state, fingerprint)
 
     def write(state):
