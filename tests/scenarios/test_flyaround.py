@@ -7,7 +7,7 @@ saves; the nominal start is sample 0 of the batch in both), so its nominal numbe
 gallery's (163 s, 114 s, 0.019 m after 190 s; the pointing error after 190 s is 0.0248 deg over
 200 s and 0.0263 deg over 1200 s). Its Monte Carlo draws other starts (4 of the same key, not
 64), so those are pinned as the short run's own. Deterministic float64: measured spreads
-(2026-12-07, the 2-core development CPU) 1e-15 relative between the short and full batches and
+(2026-12-06, the 2-core development CPU) 1e-15 relative between the short and full batches and
 6e-10 under CI's XLA flags (`.ci/run`), the largest for the pointing errors after 190 s (a
 residual inside the boundary layer). `REL = 1e-6` leaves a factor 1700 for other CPUs'
 rounding; a 1 % change of the translational surface's gain fails it (checked).
@@ -29,7 +29,7 @@ def short(tmp_path_factory):
 
 REL = 1e-6  # the regression pins' relative width: see the module docstring
 
-# The short run's numbers, measured 2026-12-07.
+# The short run's numbers, measured 2026-12-06.
 EXPECTED = {
     "nominal": {
         "position_settle_time_0.1m": 162.9751001520727,

@@ -6,7 +6,7 @@ the paper's claims are inequalities (h > 0, limits, convergence, settling), and 
 are pinned as regression values. The short run flies Cases 1 and 2 exactly as the full one
 does (RK4 at 20 ms, 300 s, the same batch program; only the Monte Carlo has 4 + 4 starts
 instead of 32 + 32), so its case numbers are the gallery's. They are deterministic float64
-results; measured spreads (2026-12-07, the 2-core development CPU): 1e-11 relative between
+results; measured spreads (2026-12-06, the 2-core development CPU): 1e-11 relative between
 the short and the full batch (the batch's size changes XLA's rounding), 6e-9 under CI's XLA
 flags (`.ci/run`: fusion emitters off, LLVM -O0), 5e-11 with a start moved by 1e-9 m (no
 amplification). `REL = 1e-6`, 170 times the largest, leaves room for other CPUs' rounding
@@ -46,7 +46,7 @@ def short(tmp_path_factory):
 
 REL = 1e-6  # the regression pins' relative width: see the module docstring
 
-# The short run's numbers (= the full run's Cases 1 and 2), measured 2026-12-07.
+# The short run's numbers (= the full run's Cases 1 and 2), measured 2026-12-06.
 EXPECTED = {
     "case1": {
         # h at the closest point to the target, on the axis 0.2 mm past r_d; h(r_d) itself is

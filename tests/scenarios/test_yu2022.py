@@ -120,7 +120,7 @@ def test_monte_carlo_rate_bound_ftac_keeps_it_ft_does_not():
     step as notebook 04's full mode), so the count is exact, not a statistical fraction: it is
     asserted exactly. It could only move if a sample's peak rate moved across M, and the FT
     peak nearest M is 8.8e-4 rad/s from it while the peaks move by 4e-16 under CI's XLA flags
-    (measured 2026-12-07). The peaks and the sampled ratio are pinned to 1e-9 relative on the
+    (measured 2026-12-06). The peaks and the sampled ratio are pinned to 1e-9 relative on the
     same grounds (no integration in the ratio; peaks over saved samples of a deterministic
     float64 run)."""
     results = yu.rate_bound_monte_carlo(jr.key(yu.MC_SEED), 500)

@@ -5,7 +5,7 @@ Tolerances. The paper's claims (converged by 50 s and 35 s) are checked as the i
 `yue2018.claims` states; our own numbers are pinned as regression values. The short run is the
 full run's first 60 s (same RK4 step, 0.01 s, same saves), so every number up to 60 s is the
 full run's, the gallery's table included (its 250 s columns are notebook 08's, full mode).
-Deterministic float64: measured spreads (2026-12-07, the 2-core development CPU) 4e-16
+Deterministic float64: measured spreads (2026-12-06, the 2-core development CPU) 4e-16
 relative under CI's XLA flags (`.ci/run`), and a start moved by 1e-12 (rate) or 1e-9 (position)
 moves them by at most 0.15 times as much relative, so rounding is not amplified (the attitude
 law's sign() does not turn it into chattering differences). `REL = 1e-9` leaves a factor 1e6 for
@@ -32,7 +32,7 @@ def short(tmp_path_factory):
 
 REL = 1e-9  # the regression pins' relative width: see the module docstring
 
-# The short run's numbers (the full run's up to 60 s), measured 2026-12-07.
+# The short run's numbers (the full run's up to 60 s), measured 2026-12-06.
 EXPECTED = {
     "printed_gains": {
         "position_norm_at_50s": 104.81317885176709,
