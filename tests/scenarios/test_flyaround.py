@@ -1,5 +1,17 @@
 """Fly-around (SPEC 001(a)): the reference's frame and rates against finite differences of its
-own attitude, the short reproduction with its Monte Carlo, bad input."""
+own attitude, the short reproduction with its Monte Carlo, bad input.
+
+Tolerances. The paper gives only its abstract, so every number is our own simulation's, pinned
+as a regression value. The short run is the full run's first 200 s (same step, 0.1 s, same
+saves; the nominal start is sample 0 of the batch in both), so its nominal numbers are the
+gallery's (163 s, 114 s, 0.019 m after 190 s; the pointing error after 190 s is 0.0248 deg over
+200 s and 0.0263 deg over 1200 s). Its Monte Carlo draws other starts (4 of the same key, not
+64), so those are pinned as the short run's own. Deterministic float64: measured spreads
+(2026-12-06, the 2-core development CPU) 1e-15 relative between the short and full batches and
+6e-10 under CI's XLA flags (`.ci/run`), the largest for the pointing errors after 190 s (a
+residual inside the boundary layer). `REL = 1e-6` leaves a factor 1700 for other CPUs'
+rounding; a 1 % change of the translational surface's gain fails it (checked).
+"""
 
 import json
 
@@ -17,20 +29,50 @@ def short(tmp_path_factory):
     return out, flyaround.reproduce(out, short=True)
 
 
+REL = 1e-6  # the regression pins' relative width: see the module docstring
+
+# The short run's numbers, measured 2026-12-06.
+EXPECTED = {
+    "nominal": {
+        "position_settle_time_0.1m": 162.9751001520727,
+        "pointing_settle_time_1deg": 114.3682754349398,
+        "max_position_error_after_190s": 0.01948347247077581,
+        "max_pointing_error_deg_after_190s": 0.024753705831332965,
+        "peak_force": 16.73331311425446,
+        "peak_torque": 1.0816653850911109,
+        "energy": 1482.6542855351797,
+    },
+    "monte_carlo": {
+        "worst_position_settle_time": 177.81428911567707,
+        "median_position_settle_time": 169.7301169023625,
+        "worst_pointing_settle_time": 127.59866888073253,
+        "worst_max_position_error_after_190s": 0.05824630301483836,
+        "worst_max_pointing_error_deg_after_190s": 0.040640609012625985,
+    },
+}
+
+
 def test_short_fly_around_converges_and_every_dispersed_start_does_too(short):
     out, m = short
     # The returned dict is the file (scenarios/_io.py).
     assert json.loads((out / "metrics.json").read_text()) == m
     nominal, mc = m["nominal"], m["monte_carlo"]
     assert nominal["status"] == 0
-    assert nominal["position_settle_time_0.1m"] < 200.0
-    assert nominal["pointing_settle_time_1deg"] < 150.0
-    assert nominal["max_position_error_after_190s"] < 0.05
-    assert nominal["max_pointing_error_deg_after_190s"] < 0.1
+    # Converges: inside 0.1 m and 1 deg before the short run's end, and stays there.
+    assert nominal["position_settle_time_0.1m"] < flyaround.SHORT_HORIZON
+    assert nominal["pointing_settle_time_1deg"] < flyaround.SHORT_HORIZON
+    assert nominal["max_position_error_after_190s"] < 0.02  # the gallery's "below 0.02 m"
     assert mc["successful"] == mc["samples"] == flyaround.SHORT_MC_SAMPLES
-    assert mc["worst_position_settle_time"] < 250.0
-    assert mc["worst_max_pointing_error_deg_after_190s"] < 0.1
+    assert mc["worst_position_settle_time"] < flyaround.SHORT_HORIZON
     assert (out / "fig_flyaround.png").exists()
+
+
+@pytest.mark.parametrize("group", ["nominal", "monte_carlo"])
+def test_the_short_runs_numbers_are_the_pinned_ones(short, group):
+    """Regression, to `REL` (module docstring)."""
+    _, m = short
+    for key, expected in EXPECTED[group].items():
+        assert m[group][key] == pytest.approx(expected, rel=REL), key
 
 
 def test_reference_geometry_and_rates_match_finite_differences():

@@ -1,5 +1,26 @@
 """Wu, Song & Sun 2018 (SPEC 001(c), reconstructed): the properties the paper states (safety,
-convergence, bounded inputs), the law's exact reaching dynamics, bad input."""
+convergence, bounded inputs), the law's exact reaching dynamics, bad input.
+
+Tolerances. The paper's equations and figures are lost, so no number here is a paper figure:
+the paper's claims are inequalities (h > 0, limits, convergence, settling), and our own numbers
+are pinned as regression values. The short run flies Cases 1 and 2 exactly as the full one
+does (RK4 at 20 ms, 300 s, the same batch program; only the Monte Carlo has 4 + 4 starts
+instead of 32 + 32), so its case numbers are the gallery's. They are deterministic float64
+results; measured spreads (2026-12-06, the 2-core development CPU): 1e-11 relative between
+the short and the full batch (the batch's size changes XLA's rounding), 6e-9 under CI's XLA
+flags (`.ci/run`: fusion emitters off, LLVM -O0), 5e-11 with a start moved by 1e-9 m (no
+amplification). `REL = 1e-6`, 170 times the largest, leaves room for other CPUs' rounding
+(libm, vector width) and is far below what a 1 % change of a gain moves (checked for k_s,
+k_h, k_eta and P1: each fails 13 to 21 of the 24 case pins; the previous bounds passed all four).
+
+The step is part of what is pinned: the translation is resolved at 20 ms (Case 1 flown 150 s
+at 10 and 5 ms: the same final position error to 1e-8 relative, min h to 3e-7), but the
+attitude channel's residuals are the step's, not the law's: the rate error ends at 1.1e-5 rad/s
+(4.2e-6, 1.9e-6, 2.4e-7 at 10, 5, 2.5 ms) and the settled torque at 0.025 N m (0.018, 0.007,
+0.003 at 10, 5, 2.5 ms; the disturbance needs 0.003 N m). The saved torque is the law at the
+step's start, and the law's sig^0.6 term is not Lipschitz at z = 0. The rate error's settle
+time to 1e-4 rad/s is 4.495 s here and 4.505 s at 5 ms and below.
+"""
 
 import json
 
@@ -22,42 +43,115 @@ def short(tmp_path_factory):
     return out, wu2018.reproduce(out, short=True)
 
 
+REL = 1e-6  # the regression pins' relative width: see the module docstring
+
+# The short run's numbers (= the full run's Cases 1 and 2), measured 2026-12-06.
+EXPECTED = {
+    "case1": {
+        # h at the closest point to the target, on the axis 0.2 mm past r_d; h(r_d) itself is
+        # (a3^2 - 25) tan^2(theta) 25 = 75.454 (closed form)
+        "min_h": 75.44820051580656,
+        "min_distance_to_target": 4.999802660230454,
+        "final_position_error": 6.653985424189618e-06,
+        "position_settle_time": 91.03850964851388,
+        "final_velocity_error": 2.024202932182683e-08,
+        "attitude_settle_time": 3.3698697310453354,
+        "rate_error_settle_time": 4.494702275272553,
+        "peak_torque_last_50s": 0.024546398310027757,
+        "dm_hat_peak": 0.004976341938772583,
+        "dm_hat_final": 4.620511481954324e-05,
+        "dm_hat_change_last_50s": 2.766778579816836e-06,
+        "eta_peak": 0.22889721394683907,
+    },
+    "case2": {
+        "min_h": 8.675137485664116,  # through the corridor's mouth, at x = 49.0065 m
+        "min_distance_to_target": 4.999761470278126,
+        "final_position_error": 6.6539772148596875e-06,
+        "position_settle_time": 243.77595120717658,
+        "final_velocity_error": 2.024131259687033e-08,
+        "attitude_settle_time": 3.3698697310453354,  # the attitude does not see the position
+        "rate_error_settle_time": 4.494702275272553,
+        "peak_torque_last_50s": 0.024546398310027757,
+        "dm_hat_peak": 0.011705987438132079,
+        "dm_hat_final": 4.6320219007671404e-05,
+        "dm_hat_change_last_50s": 1.302704810308921e-05,
+        "eta_peak": 0.6274090735609973,
+    },
+}
+
+
 def test_blend_coefficients_round_to_the_printed_ones(short):
+    """A closed form (the C^1 cubic's coefficients, float64 and exact rational expansion)
+    against the paper's 4 significant digits. Measured in units of the 4th digit: c1 0.33,
+    c2 0.32, c4 0.40 (each rounds to the printed digits: within half a unit) and c3 0.56 (it
+    rounds one unit away: the reconstruction's only miss, as notebook 09 says). The widths
+    are those units, not SPEC's looser "about 1.1 units" of all its candidate fits: the cissoid
+    corridor, SPEC's other candidate, misses c4 by 0.54 and fails here."""
     _, metrics = short
+    units = []
     for ours, printed in zip(metrics["blend_coefficients"], metrics["printed_c"]):
         unit = 10.0 ** (np.floor(np.log10(abs(printed))) - 3)  # the 4th significant digit
-        assert abs(ours - printed) <= 1.1 * unit
+        units.append(abs(ours - printed) / unit)
+    c1, c2, c3, c4 = units
+    assert max(c1, c2, c4) <= 0.5, units
+    assert 0.5 < c3 <= 0.57, units
 
 
 def test_both_cases_stay_safe_converge_and_respect_the_limits(short):
+    """The paper's claims (SPEC 001(c)), as inequalities on both cases: safe (h > 0 at every
+    saved sample); attitude and rate errors converge and the torques settle (Figs. 4-6);
+    position and velocity errors converge, forces bounded (Figs. 7-9); d_m_hat settles
+    (Fig. 10). The bounds are the claims' own words made numbers, each far from the measured
+    value (in brackets), so that they fail only when the claim does."""
     out, metrics = short
     # The returned dict is the file (scenarios/_io.py).
     assert json.loads((out / "metrics.json").read_text()) == metrics
     for case in ("case1", "case2"):
         m = metrics[case]
         assert m["result"] == "successful"
-        assert m["min_h"] > 0.0
-        assert m["min_distance_to_target"] > 4.9
-        assert m["final_position_error"] < 1e-3
-        assert m["attitude_settle_time"] < 20.0
-        assert m["peak_force"] <= wu2018.FORCE_LIMIT * (1 + 1e-12)
-        assert m["peak_torque"] <= wu2018.TORQUE_LIMIT * (1 + 1e-12)
-        assert 0.0 < m["eta_peak"] < 5.0  # the anti-windup state is used, and bounded
-        assert np.isfinite(m["dm_hat_final"]) and m["dm_hat_change_last_50s"] < 1e-3
+        assert m["min_h"] > 0.0  # (75.4, 8.68 m^4)
+        assert m["final_position_error"] < 1e-5  # m, the gallery's "within 1e-5 m" (6.7e-6)
+        assert m["final_velocity_error"] < 1e-6  # m/s (2.0e-8)
+        assert m["attitude_settle_time"] < 10.0  # s (3.37)
+        assert m["rate_error_settle_time"] < 10.0  # s (4.49)
+        # Bounded: the limits bind (the clip returns the limit itself) and are never exceeded.
+        assert m["peak_force"] == wu2018.FORCE_LIMIT and m["peak_torque"] == wu2018.TORQUE_LIMIT
+        # The torques settle: at most 10 % of the limit over the last 50 s (2.5 %).
+        assert m["peak_torque_last_50s"] < 0.1 * wu2018.TORQUE_LIMIT
+        # d_m_hat settles: it moves by less than 1 % of its peak over the last 50 s (0.06 %
+        # and 0.11 %).
+        assert m["dm_hat_change_last_50s"] < 0.01 * m["dm_hat_peak"]
+        # The anti-windup state is used, and bounded (0.23, 0.63; its value is pinned below:
+        # a 1 % change of k_eta takes Case 2's to 1.8, so no band here would mean more).
+        assert 0.0 < m["eta_peak"] and np.isfinite(m["eta_peak"])
     assert (out / "trajectories.png").exists() and (out / "errors_inputs.png").exists()
+
+
+@pytest.mark.parametrize("case", ["case1", "case2"])
+def test_the_cases_numbers_are_the_pinned_ones(short, case):
+    """Regression: every per-case number of the gallery's table and more, to `REL` (module
+    docstring). The attitude channel's numbers hold at this step only (module docstring)."""
+    _, metrics = short
+    for key, expected in EXPECTED[case].items():
+        assert metrics[case][key] == pytest.approx(expected, rel=REL), key
 
 
 def test_without_avoidance_case2_enters_the_keep_out_set(short):
     _, metrics = short
     without = metrics["case2"]["without_avoidance"]
     assert without["enters_keep_out"] and without["min_h"] < 0.0
-    assert 0.0 < without["entry_time"] < wu2018.HORIZON
+    # The end of the first RK4 step with h <= 0, a point of the 20 ms grid: h = 780.9 m^4 at
+    # 23.86 s and -10.45 at 23.88 s (measured, every step saved), so rounding cannot move it
+    # by a step; the width is the float's, not a step's.
+    assert without["entry_time"] == pytest.approx(23.88, abs=1e-9)
+    assert without["min_h"] == pytest.approx(-451542.5290090394, rel=REL)
     assert without["result"] == "constraint_violated"
     # Case 1 starts inside the corridor and flies straight down it: safe either way (False,
     # not merely falsy: None means the run failed before it could tell).
     case1 = metrics["case1"]["without_avoidance"]
     assert case1["enters_keep_out"] is False and case1["result"] == "successful"
     assert case1["entry_time"] is None
+    assert case1["min_h"] == pytest.approx(75.45007665585698, rel=REL)
 
 
 def _stub_trajectory(h, status, failure_time):
@@ -103,13 +197,20 @@ def test_a_run_that_failed_another_way_does_not_report_that_it_stayed_out():
 
 
 def test_monte_carlo_reports_every_sample_safe_and_converged(short):
+    """Fixed key (`MC_SEED`): the fractions are exact counts of 4; the minimum h of each group
+    is pinned to `REL` (the corridor's is h near r_d again, the outside group's that of the
+    corridor's mouth, where every start passes after the hold point)."""
     _, metrics = short
+    expected_min_h = {"corridor": 75.4465264199279, "outside": 8.67513748092551}
     for group in ("corridor", "outside"):
         mc = metrics["monte_carlo"][group]
         assert mc["samples"] == wu2018.SHORT_MC_SAMPLES // 2
         assert mc["fraction_safe"] == 1.0 and mc["min_h"] > 0.0
+        assert mc["min_h"] == pytest.approx(expected_min_h[group], rel=REL)
         assert mc["fraction_converged"] == 1.0
-        assert mc["peak_force"] <= wu2018.FORCE_LIMIT * (1 + 1e-12)
+        assert mc["largest_final_position_error"] < 1e-5  # the gallery's "within 1e-5 m"
+        assert mc["peak_force"] == wu2018.FORCE_LIMIT
+        assert mc["peak_torque"] == wu2018.TORQUE_LIMIT
 
 
 def test_a_sample_that_enters_the_keep_out_set_is_reported_not_nan(short):

@@ -92,7 +92,7 @@ from ..plants import (
     relative_orbit_state,
 )
 from ..references import AbstractReference, AttitudeReference, PoseReference, TranslationReference
-from ..rotations import mrp_kinematics_matrix, quat_from_mrp
+from ..rotations import attitude_error_quat, mrp_kinematics_matrix, quat_from_mrp, rate_error
 from ..safety import CollisionAvoidance, ConeCorridor, KeepOutSphere
 from ..signals import AbstractSignal
 from ..simulation import ClosedLoop, Simulation, Status, Trajectory
@@ -119,7 +119,9 @@ RATE_LIMIT = None  # the attitude surface's MRP-rate limit [1/s]: none
 HOLD_POINT, HOLD_RELEASE = (60.0, 0.0, 0.0), 130.0
 HORIZON, DT, SAVE_PERIOD = 300.0, 0.02, 0.2  # s
 DIRECT_DT, DIRECT_HORIZON = 0.005, 150.0
-ATTITUDE_TOLERANCE = 1e-3
+ATTITUDE_TOLERANCE = 1e-3  # on ||sigma - sigma_d||
+RATE_TOLERANCE = 1e-4  # rad/s, on ||omega - C(e) omega_d||
+POSITION_TOLERANCE = 1e-2  # m, on ||P - r_d||: the Monte Carlo's "converged"
 MC_SAMPLES, SHORT_MC_SAMPLES, MC_SEED = 64, 8, 2018
 
 
@@ -259,25 +261,55 @@ def simulate_batch(
     return _integrate_batch(_stack(loops), _stack([initial_state(p) for p in starts]), sim)
 
 
+def _rate_errors(traj: Trajectory) -> np.ndarray:
+    r"""$\|\omega - C(e)\,\omega_d\|$ [rad/s] at the save times of one trajectory (the
+    attitude reference is the same with or without the hold point)."""
+    reference = SafeApproachReference(R_D, MEAN_MOTION)
+
+    def one(t, q, omega):
+        attitude = reference(t, None)[0].attitude
+        return rate_error(attitude_error_quat(q, attitude.q_d), omega, attitude.omega_d)
+
+    attitude = traj.states.plant.attitude
+    errors = jax.vmap(one)(traj.ts, attitude.q, attitude.omega)
+    return np.linalg.norm(np.asarray(errors), axis=-1)
+
+
 def trajectory_metrics(traj: Trajectory) -> dict:
-    """The per-case metrics of `metrics.json` for one trajectory (host-side, NumPy)."""
+    r"""The per-case metrics of `metrics.json` for one trajectory (host-side, NumPy).
+
+    Settle times are last exits ([`jaxatt.metrics.settling_time`][]; `inf` if not settled):
+    `attitude_settle_time` of $\|\sigma - \sigma_d\|$ from `ATTITUDE_TOLERANCE`,
+    `rate_error_settle_time` of $\|\omega - C(e)\omega_d\|$ from `RATE_TOLERANCE`,
+    `position_settle_time` of $\|P - r_d\|$ from `POSITION_TOLERANCE`. The paper's
+    "the torques settle" and "$\hat d_m$ settles" are read from `peak_torque_last_50s` and
+    `dm_hat_change_last_50s` against `dm_hat_peak`."""
     ts = np.asarray(traj.ts)
     rho = np.asarray(traj.states.plant.orbit.rho)
     h = np.asarray(traj.signals["h"])
     u = np.asarray(traj.signals["u"])
     e_sigma = np.linalg.norm(np.asarray(traj.signals["sigma_error"]), axis=-1)
     settle = float(settling_time(ts, e_sigma, ATTITUDE_TOLERANCE))
+    position_error = np.linalg.norm(rho - np.array(R_D), axis=-1)
     failed = int(traj.status) != Status.successful
     d_hat = np.asarray(traj.signals["d_hat_translation"])
+    last_50s = ts >= ts[-1] - 50.0
     return {
         "min_h": float(h.min()),
         "min_distance_to_target": float(np.linalg.norm(rho, axis=-1).min()),
         "final_position_error": float(np.linalg.norm(rho[-1] - np.array(R_D))),
+        "position_settle_time": float(settling_time(ts, position_error, POSITION_TOLERANCE)),
+        "final_velocity_error": float(
+            np.linalg.norm(np.asarray(traj.states.plant.orbit.rho_dot)[-1])
+        ),
         "attitude_settle_time": settle,
+        "rate_error_settle_time": float(settling_time(ts, _rate_errors(traj), RATE_TOLERANCE)),
         "peak_force": float(np.abs(u[:, :3]).max()),
         "peak_torque": float(np.abs(u[:, 3:]).max()),
+        "peak_torque_last_50s": float(np.abs(u[last_50s, 3:]).max()),
+        "dm_hat_peak": float(d_hat.max()),
         "dm_hat_final": float(d_hat[-1]),
-        "dm_hat_change_last_50s": float(np.ptp(d_hat[ts >= ts[-1] - 50.0])),
+        "dm_hat_change_last_50s": float(np.ptp(d_hat[last_50s])),
         "dm_hat_attitude_final": float(np.asarray(traj.signals["d_hat_attitude"])[-1]),
         "eta_peak": float(np.abs(np.asarray(traj.signals["eta_translation"])).max()),
         "result": Status(int(traj.status)).name,
