@@ -79,6 +79,20 @@ def test_tune_command_writes_a_report_and_resumes(tmp_path, capsys):
     assert cli.main(args + ["--resume"]) == 0
     again = json.loads((tmp_path / "tuning.json").read_text())
     assert again["gains_after"] == first["gains_after"]
+    # Regression (stop 47's note): resuming from another run's checkpoint (here another
+    # training batch: --samples 5) was a ValueError traceback, exit 1. Now a usage error before
+    # the loop is compiled (drawing the 5 initial states compiles two small programs), with
+    # the checkpoint left as it was.
+    from .helpers import compile_count
+
+    saved = (tmp_path / "checkpoint.eqx").read_bytes()
+    compiled = compile_count("_loss_and_grad")
+    other = [v if v != "4" else "5" for v in args] + ["--resume"]
+    assert cli.main(other) == cli.EXIT_USAGE == 2
+    err = capsys.readouterr().err
+    assert "was written for another tuning problem" in err and "nothing was run" in err
+    assert compile_count("_loss_and_grad") == compiled
+    assert (tmp_path / "checkpoint.eqx").read_bytes() == saved
 
 
 def test_reproduce_chen2022_short_writes_figures_and_metrics(tmp_path, capsys):
@@ -220,6 +234,23 @@ def test_a_tuning_run_that_raised_on_a_nonfinite_step_exits_non_zero(
     err = capsys.readouterr().err
     assert f"jaxatt: tune {name} did not complete: tune: at step 3, the loss is inf" in err
     assert f"the checkpoint in {tmp_path.resolve()} holds the last good step" in err
+
+
+def test_a_demo_whose_tuning_raised_exits_non_zero(tmp_path, capsys, monkeypatch):
+    # Regression (stop 47's note): a non-finite tuning step in `jaxatt demo` was a traceback,
+    # exit status 1, as for a crash. The demo is stood in (its tuning stage raising).
+    from jaxatt import tune
+    from jaxatt.scenarios import demo
+
+    def fake_run(out, **kwargs):
+        gains = {"rho": np.array(1.0)}
+        raise tune.NonFiniteLossError(2, float("nan"), ["rho"], gains, (0, 4), True)
+
+    monkeypatch.setattr(demo, "run", fake_run)
+    assert cli.main(["demo", "--short", "--out", str(tmp_path)]) == cli.EXIT_STOPPED == 3
+    err = capsys.readouterr().err
+    assert "jaxatt: demo did not complete: its tuning stage stopped: tune: at step 2" in err
+    assert f"no summary.json or report.md was written in {tmp_path.resolve()}" in err
 
 
 def test_the_exit_statuses_are_in_the_help(capsys):

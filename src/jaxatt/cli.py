@@ -8,8 +8,10 @@ JAX's own `JAX_COMPILATION_CACHE_DIR` names), then dispatches to library functio
 here.
 
 Exit status (`EXIT_CODES`, also in `--help`): 0 done; 1 an unexpected error; 2 a bad command
-line, an unknown name or `tune --resume` without a checkpoint (nothing run); 3 a `tune` run
-that did not complete (a non-finite step), so that no script or CI job takes it for a success.
+line, an unknown name, or `tune --resume` without a checkpoint or with one of another run
+(nothing run); 3 a `tune` run, or the
+`demo`'s tuning stage, that did not complete (a non-finite step), so that no script or CI job
+takes it for a success.
 """
 
 import argparse
@@ -25,20 +27,22 @@ EXIT_ERROR = 1
 """An unexpected error (Python's status for an uncaught exception, with its traceback)."""
 EXIT_USAGE = 2
 """A bad command line (argparse's status), an unknown scenario or tuning problem, or
-`tune --resume` with no checkpoint in the output folder; nothing was run."""
+`tune --resume` with no checkpoint in the output folder or with a checkpoint of another run
+(another problem, batch size or starting gains); nothing was run."""
 EXIT_STOPPED = 3
 """`tune`: the run did not complete (a step's loss or gradient was not finite); why is on
 stderr. What the problem writes (its report, where it records the stop, and the checkpoint)
-holds the last good step."""
+holds the last good step. `demo`: its tuning stage did not complete (no summary or report)."""
 
 EXIT_CODES = f"""exit status:
   {EXIT_OK}  done (tune: every optimizer step completed)
   {EXIT_ERROR}  an unexpected error (traceback on stderr)
   {EXIT_USAGE}  bad command line, unknown NAME, or tune --resume without a checkpoint in
-     the output folder (nothing was run)
+     the output folder or with another run's checkpoint there (nothing was run)
   {EXIT_STOPPED}  tune: the run did not complete (a non-finite loss or gradient; why is
      on stderr); the checkpoint, and the report where the problem writes one
-     for a stopped run, hold the last good step
+     for a stopped run, hold the last good step. demo: its tuning stage did not
+     complete (no summary or report written)
 """
 
 
@@ -98,11 +102,23 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
 def _cmd_demo(args: argparse.Namespace) -> int:
     from .scenarios import demo
+    from .tune import NonFiniteLossError
 
     out = pathlib.Path(args.out) if args.out else pathlib.Path("jaxatt-out") / "demo"
     start = time.perf_counter()
     print("[jaxatt] demo: Chen 2022 reproduction, Monte Carlo, autodiff tuning (float64)")
-    summary = demo.run(out, short=args.short, progress=True)
+    try:
+        summary = demo.run(out, short=args.short, progress=True)
+    except NonFiniteLossError as error:
+        # The tuning stage raised (a non-finite loss or gradient): what ran before it is on
+        # disk, but there is no summary or report, and the demo must not read as a success.
+        print(
+            f"jaxatt: demo did not complete: its tuning stage stopped: {error}\n"
+            f"jaxatt: no summary.json or report.md was written in {out.resolve()}; the "
+            "reproduction and Monte Carlo figures written before it are there.",
+            file=sys.stderr,
+        )
+        return EXIT_STOPPED
     tuned = summary["tuning"]
     print(
         "[jaxatt] held-out settling (mean of the settled samples): "
@@ -130,7 +146,7 @@ def _settling(stats: dict) -> str:
 def _cmd_tune(args: argparse.Namespace) -> int:
     from .scenarios import TUNING
     from .scenarios._io import json_safe
-    from .tune import NoCheckpointError, NonFiniteLossError
+    from .tune import CheckpointMismatchError, NoCheckpointError, NonFiniteLossError
 
     if args.name not in TUNING:
         print(
@@ -158,6 +174,16 @@ def _cmd_tune(args: argparse.Namespace) -> int:
             f"jaxatt: tune {args.name} --resume: no checkpoint to resume from in "
             f"{out.resolve()} (looked for {looked}); nothing was run. Leave out --resume to "
             "start a fresh run, or pass the --out folder of the run to continue.",
+            file=sys.stderr,
+        )
+        return EXIT_USAGE
+    except CheckpointMismatchError as error:
+        # Checked before anything compiles; the checkpoint was left as it was.
+        print(
+            f"jaxatt: tune {args.name} --resume: {error}\n"
+            f"jaxatt: nothing was run and {error.path.resolve()} was left as it was. Pass the "
+            "--out folder of this problem's run (with the same --samples) to continue it, or "
+            "leave out --resume to start a fresh run in another folder.",
             file=sys.stderr,
         )
         return EXIT_USAGE

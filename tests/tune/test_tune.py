@@ -188,6 +188,7 @@ def test_tuning_into_divergence_stops_with_a_clear_error_and_a_good_checkpoint(t
         )
     error = info.value
     assert error.step == 3 and error.loss == np.inf
+    assert error.checkpoint is True  # documented attribute (was missing: stop 47's note)
     assert "at step 3" in str(error) and "the loss is inf" in str(error)
     assert error.gains["kd"] == pytest.approx(3.0 * np.exp(8.0))  # the gains of step 3
     # The checkpoint holds the last good step (2), with finite gains and losses.
@@ -275,9 +276,10 @@ def test_interrupted_run_resumes_bit_identically(tmp_path):
     # Every step of every run, before and after resuming, ran the programs compiled for the
     # calls above (the loss and gradient, and this optimizer's update): nothing compiled again.
     assert (compile_count("_loss_and_grad"), compile_count("_update")) == compiled_before
-    with pytest.raises(ValueError, match="4 steps done, more than steps=2"):
+    # Each mismatch is a CheckpointMismatchError (a ValueError: the CLI's exit status 2).
+    with pytest.raises(tune.CheckpointMismatchError, match="4 steps done, more than steps=2"):
         tune.tune(loop, params, objective, x0s, steps=2, resume=True, **common)
-    with pytest.raises(ValueError, match="does not belong to this tuning problem"):
+    with pytest.raises(tune.CheckpointMismatchError, match="does not belong to this tuning"):
         tune.tune(
             loop,
             params,
@@ -300,7 +302,7 @@ def test_interrupted_run_resumes_bit_identically(tmp_path):
     renamed = {("lam" if k == "lambda" else k): v for k, v in params.items()}
     for changed in (dict(inputs=other_batch), dict(template=moved), dict(parameters=renamed)):
         call = dict(template=loop, parameters=params, inputs=x0s) | changed
-        with pytest.raises(ValueError, match="was written for another tuning problem"):
+        with pytest.raises(tune.CheckpointMismatchError, match="written for another tuning"):
             tune.tune(
                 call["template"],
                 call["parameters"],
@@ -523,6 +525,7 @@ def test_a_failed_sample_makes_the_loss_inf_whatever_the_aggregate():
     with pytest.raises(tune.NonFiniteLossError, match="at step 1") as info:
         tune.tune(loop, params, objective, x0s, steps=3, optimizer=optax.sgd(1e-3), progress=False)
     assert info.value.failed == (1, 4) and "1 of 4 samples failed" in str(info.value)
+    assert info.value.checkpoint is False  # no checkpoint path given
 
 
 def test_a_non_finite_loss_without_a_failed_sample_is_not_called_a_failure():

@@ -13,6 +13,7 @@
 """
 
 from ._checkpoint import (
+    CheckpointMismatchError as CheckpointMismatchError,
     NoCheckpointError as NoCheckpointError,
     TuneState as TuneState,
     load_checkpoint as load_checkpoint,

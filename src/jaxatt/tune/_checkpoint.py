@@ -26,6 +26,24 @@ class NoCheckpointError(FileNotFoundError):
         self.paths = [pathlib.Path(p) for p in paths]
 
 
+class CheckpointMismatchError(ValueError):
+    """Raised when a run asked to resume from a checkpoint that belongs to another run: other
+    parameters or optimizer (the saved state has another structure), another training batch,
+    starting gains or parameter names (the fingerprint differs), or more steps done than the
+    run asks for. Raised before anything is compiled or written, and the checkpoint is left as
+    it was.
+
+    A `ValueError`, so code that caught one before keeps working; `jaxatt tune --resume` turns
+    it into exit status 2 (a bad command: nothing was run), not a traceback.
+
+    - `path`: the checkpoint that does not match.
+    """
+
+    def __init__(self, message: str, path):
+        super().__init__(message)
+        self.path = pathlib.Path(path)
+
+
 class TuneState(eqx.Module):
     """Everything a tuning run needs to continue exactly where it stopped."""
 
@@ -64,7 +82,8 @@ def load_checkpoint(
 
     The loss history is padded (with NaN) or cut to `like`'s length, so a run stopped after
     `k` steps can continue to any total `steps >= k`. A checkpoint of another problem (other
-    parameters, another optimizer) is a `ValueError` naming the file; so is, when
+    parameters, another optimizer) is a [`CheckpointMismatchError`][] (a `ValueError`) naming
+    the file; so is, when
     `fingerprint` is given, a checkpoint written with another fingerprint (another training
     batch, other starting gains, parameter names of the same shapes). A checkpoint written
     without one is not compared.
@@ -75,26 +94,29 @@ def load_checkpoint(
             saved_like = eqx.tree_at(lambda s: s.losses, like, jnp.full(saved_length, jnp.nan))
             state = eqx.tree_deserialise_leaves(f, saved_like)
         except (RuntimeError, ValueError, TypeError) as error:
-            raise ValueError(
+            raise CheckpointMismatchError(
                 f"tune: the checkpoint {str(path)!r} does not belong to this tuning problem "
-                f"(other parameters or optimizer?): {error}"
+                f"(other parameters or optimizer?): {error}",
+                path,
             ) from None
         try:
             saved = np.load(f, allow_pickle=False).tobytes().decode()
         except (EOFError, ValueError, UnicodeDecodeError):
             saved = None  # written without a fingerprint
     if fingerprint is not None and saved is not None and saved != fingerprint:
-        raise ValueError(
+        raise CheckpointMismatchError(
             f"tune: the checkpoint {str(path)!r} was written for another tuning problem: its "
             "training batch (`inputs`), starting gains or parameter names differ from this call's. "
             "Resume with the same ones, or start afresh (resume=False or another checkpoint "
-            "path)."
+            "path).",
+            path,
         )
     steps = like.losses.shape[0]
     done = int(state.step)
     if done > steps:
-        raise ValueError(
-            f"tune: the checkpoint {str(path)!r} has {done} steps done, more than steps={steps}."
+        raise CheckpointMismatchError(
+            f"tune: the checkpoint {str(path)!r} has {done} steps done, more than steps={steps}.",
+            path,
         )
     losses = jnp.full(steps, jnp.nan, dtype=like.losses.dtype)
     losses = losses.at[:done].set(state.losses[:done])

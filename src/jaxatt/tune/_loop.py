@@ -57,6 +57,7 @@ class NonFiniteLossError(FloatingPointError):
         self.nonfinite_gradients = nonfinite_gradients
         self.gains = gains
         self.failed = failed
+        self.checkpoint = checkpoint
         what = []
         if not math.isfinite(loss):
             what.append(f"the loss is {loss}")
