@@ -9,9 +9,8 @@ here.
 
 Exit status (`EXIT_CODES`, also in `--help`): 0 done; 1 an unexpected error; 2 a bad command
 line, an unknown name, or `tune --resume` without a checkpoint or with one of another run
-(nothing run); 3 a `tune` run, or the
-`demo`'s tuning stage, that did not complete (a non-finite step), so that no script or CI job
-takes it for a success.
+(nothing run); 3 a `tune` run, or the `demo`'s tuning stage, that did not complete (a
+non-finite step), so that no script or CI job takes it for a success.
 """
 
 import argparse

@@ -266,8 +266,8 @@ def tune(
       `resume=pathlib.Path(checkpoint).exists()`). A resumed run ends bit-identical to an
       uninterrupted one (same inputs, same optimizer; XLA:CPU is deterministic). A
       checkpoint written for another training batch, other starting gains or parameter names
-      is a `ValueError` (the rest of the template, the objective and the optimizer's settings
-      are not compared).
+      is a [`CheckpointMismatchError`][] (a `ValueError`; the rest of the template, the
+      objective and the optimizer's settings are not compared).
     - `progress`: tqdm progress bar with the current loss.
     - `callback`: called as `callback(step, loss, aux)` after every step.
     - `on_nonfinite`: `"raise"` (default) raises [`NonFiniteLossError`][] when a step's loss or
