@@ -206,7 +206,24 @@ def test_resume_needs_a_checkpoint_and_continues_the_weights_that_have_one(tmp_p
         shi2024_tuning, "case1_check", lambda gains: case1 | {"result": "successful"}
     )
     monkeypatch.setattr(shi2024_tuning, "_plot", lambda out, report: None)
-    (tmp_path / "checkpoint_w0.eqx").write_bytes(b"")
+    # weight 0's checkpoint: a run of this problem stopped after one step
+    params = shi2024_tuning.parameters()
+    u = tune.initial_unconstrained(shi2024_tuning.template(), params)
+    state = tune.TuneState(
+        step=jnp.array(1),
+        unconstrained=u,
+        opt_state=shi2024_tuning._OPTIMIZER.init(u),
+        losses=jnp.array([1.0]),
+    )
+    tune.save_checkpoint(tmp_path / "checkpoint_w0.eqx", state)
+    # Regression: a checkpoint of the second weight from another run was found only after the
+    # first weight's run; now every weight's is checked before anything runs.
+    (tmp_path / "checkpoint_w100.eqx").write_bytes(b"not a checkpoint")
+    with pytest.raises(tune.CheckpointMismatchError, match=r"checkpoint_w100\.eqx") as error:
+        shi2024_tuning.run(tmp_path, resume=True, weights=(0.0, 100.0))
+    assert error.value.path == tmp_path / "checkpoint_w100.eqx"
+    assert resumed == {}
+    (tmp_path / "checkpoint_w100.eqx").unlink()
     report = shi2024_tuning.run(tmp_path, resume=True, weights=(0.0, 100.0))
     assert resumed == {"checkpoint_w0.eqx": True, "checkpoint_w100.eqx": False}
     assert report == json.loads((tmp_path / "tuning.json").read_text())  # scenarios/_io.py

@@ -276,6 +276,19 @@ def test_interrupted_run_resumes_bit_identically(tmp_path):
     # Every step of every run, before and after resuming, ran the programs compiled for the
     # calls above (the loss and gradient, and this optimizer's update): nothing compiled again.
     assert (compile_count("_loss_and_grad"), compile_count("_update")) == compiled_before
+    # `check_checkpoint` answers what resuming would without compiling the closed loop: the
+    # steps done, or the errors `tune(..., resume=True)` raises.
+    compiled = compile_count("_loss_and_grad"), compile_count("_evaluate")
+    check = dict(steps=4, optimizer=optimizer)
+    assert tune.check_checkpoint(loop, params, x0s, short_path, **check) == 4
+    with pytest.raises(tune.CheckpointMismatchError, match="4 steps done, more than steps=2"):
+        tune.check_checkpoint(loop, params, x0s, short_path, steps=2, optimizer=optimizer)
+    other_x0s = QuaternionState(x0s.q, x0s.omega + 0.01)
+    with pytest.raises(tune.CheckpointMismatchError, match="written for another tuning"):
+        tune.check_checkpoint(loop, params, other_x0s, short_path, **check)
+    with pytest.raises(tune.NoCheckpointError, match="no checkpoint"):
+        tune.check_checkpoint(loop, params, x0s, tmp_path / "missing.eqx", **check)
+    assert (compile_count("_loss_and_grad"), compile_count("_evaluate")) == compiled
     # Each mismatch is a CheckpointMismatchError (a ValueError: the CLI's exit status 2).
     with pytest.raises(tune.CheckpointMismatchError, match="4 steps done, more than steps=2"):
         tune.tune(loop, params, objective, x0s, steps=2, resume=True, **common)

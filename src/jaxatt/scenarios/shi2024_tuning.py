@@ -215,9 +215,11 @@ def run(
     Each weight has its checkpoint, `checkpoint_w<w>.eqx`. `resume=True` needs at least one of
     them in `out_dir` ([`NoCheckpointError`][jaxatt.tune.NoCheckpointError] before anything
     runs, otherwise); a weight without one had not started (the weights run in order) and
-    starts afresh. A step whose loss or gradient is not finite raises
-    [`NonFiniteLossError`][jaxatt.tune.NonFiniteLossError] (that weight's checkpoint keeps its
-    last good step; no report is written)."""
+    starts afresh. Every weight's checkpoint is checked before the first weight runs: one that
+    belongs to another run is a [`CheckpointMismatchError`][jaxatt.tune.CheckpointMismatchError]
+    then, not after the weights before it have run. A step whose loss or gradient is not
+    finite raises [`NonFiniteLossError`][jaxatt.tune.NonFiniteLossError] (that weight's
+    checkpoint keeps its last good step; no report is written)."""
     if samples != 1 or validation_samples != 1:
         raise ValueError(
             "shi2024_tuning: the problem is deterministic (the paper's initial state): "
@@ -225,12 +227,17 @@ def run(
             f"{validation_samples} (CLI: --samples 1 --validation-samples 1)."
         )
     checkpoints = {w: f"checkpoint_w{w:g}.eqx" for w in weights}
-    if resume:
-        require_checkpoint("shi2024_tuning", out_dir, list(checkpoints.values()))
     out = pathlib.Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     x0s = initial_states(samples)
     base = template()
+    if resume:
+        require_checkpoint("shi2024_tuning", out_dir, list(checkpoints.values()))
+        for name in checkpoints.values():  # every weight's, before the first one runs
+            if (out / name).is_file():
+                tuning.check_checkpoint(
+                    base, parameters(), x0s, out / name, steps=steps, optimizer=_OPTIMIZER
+                )
+    out.mkdir(parents=True, exist_ok=True)
     start_obj = VibrationObjective(0.0)
     _, start_aux = tuning.evaluate(base, start_obj, x0s)
     points = []

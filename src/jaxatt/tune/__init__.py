@@ -22,6 +22,7 @@ from ._checkpoint import (
 from ._loop import (
     NonFiniteLossError as NonFiniteLossError,
     TuneResult as TuneResult,
+    check_checkpoint as check_checkpoint,
     evaluate as evaluate,
     loss_and_grad as loss_and_grad,
     tune as tune,

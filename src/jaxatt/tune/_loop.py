@@ -233,6 +233,57 @@ def _fingerprint(template: PyTree, parameters: Mapping, inputs: PyTree) -> str:
     return digest.hexdigest()
 
 
+def _fresh_state(
+    template: PyTree, parameters: Mapping, steps: int, optimizer: optax.GradientTransformation
+) -> TuneState:
+    """Step 0 of a run: the starting gains (unconstrained), the optimizer's initial state and a
+    NaN loss history of length `steps`."""
+    unconstrained = initial_unconstrained(template, parameters)
+    return TuneState(
+        step=jnp.array(0),
+        unconstrained=unconstrained,
+        opt_state=optimizer.init(unconstrained),
+        losses=jnp.full(steps, jnp.nan),
+    )
+
+
+def check_checkpoint(
+    template: PyTree,
+    parameters: Mapping,
+    inputs: PyTree,
+    checkpoint: str | os.PathLike,
+    *,
+    steps: int,
+    optimizer: optax.GradientTransformation | None = None,
+) -> int:
+    """Check, without compiling or running the closed loop (only the optimizer's initial state
+    and the checkpoint's arrays are built), that `checkpoint` can resume
+    `tune(template, parameters, objective, inputs, steps=steps, optimizer=optimizer,
+    checkpoint=checkpoint, resume=True)`; return the number of steps it has done.
+
+    For a script that runs several tuning problems in a row and resumes them all: checking
+    every checkpoint first finds a wrong one before the earlier runs spend their time (each
+    `tune` call checks only its own, when it starts).
+
+    **Raises** [`NoCheckpointError`][] when `checkpoint` does not exist, and
+    [`CheckpointMismatchError`][] when it belongs to another run (other parameters or
+    optimizer, another training batch or starting gains, more steps done than `steps`), the
+    same errors `tune(..., resume=True)` raises.
+    """
+    steps = check_positive_int("check_checkpoint", "steps", steps)
+    if not pathlib.Path(checkpoint).is_file():
+        raise NoCheckpointError(
+            f"check_checkpoint: there is no checkpoint {str(checkpoint)!r} to resume from.",
+            [checkpoint],
+        )
+    check_parameters(template, parameters)
+    state = _fresh_state(
+        template, parameters, steps, _DEFAULT_OPTIMIZER if optimizer is None else optimizer
+    )
+    state = load_checkpoint(checkpoint, state, _fingerprint(template, parameters, inputs))
+    return int(state.step)
+
+
 def tune(
     template: PyTree,
     parameters: Mapping,
@@ -332,14 +383,10 @@ def tune(
     if optimizer is None:
         optimizer = _DEFAULT_OPTIMIZER
 
-    unconstrained = initial_unconstrained(template, parameters)
-    initial_gains = {k: np.asarray(v) for k, v in constrained(unconstrained, parameters).items()}
-    state = TuneState(
-        step=jnp.array(0),
-        unconstrained=unconstrained,
-        opt_state=optimizer.init(unconstrained),
-        losses=jnp.full(steps, jnp.nan),
-    )
+    state = _fresh_state(template, parameters, steps, optimizer)
+    initial_gains = {
+        k: np.asarray(v) for k, v in constrained(state.unconstrained, parameters).items()
+    }
     fingerprint = None if checkpoint is None else _fingerprint(template, parameters, inputs)
     if resume:
         state = load_checkpoint(checkpoint, state, fingerprint)
