@@ -44,6 +44,11 @@ def test_demo_runs_the_whole_workflow_and_reports_measured_numbers(tmp_path, cap
         assert (tmp_path / name).stat().st_size > 1000, name
     tuning_report = (tmp_path / "tuning" / "report.md").read_text()
     assert "| rho |" in tuning_report and "reduced by" in tuning_report
+    # --short skips the check at the paper's step: null in the file (it was left out), and
+    # the report says it was not run.
+    tuning_json = json.loads((tmp_path / "tuning" / "tuning.json").read_text())
+    assert tuning_json["validation_dt_1e-3"] is None
+    assert "| (not run: validate_at_paper_step=False) | 1e-3 |" in tuning_report
 
 
 def test_scenario_rigid_body_pd_reproduces(tmp_path, capsys):
@@ -75,6 +80,7 @@ def test_tune_command_writes_a_report_and_resumes(tmp_path, capsys):
     first = json.loads((tmp_path / "tuning.json").read_text())
     assert len(first["losses"]) == 2 and (tmp_path / "checkpoint.eqx").exists()
     assert first["settings"]["validation_samples"] == 16
+    assert set(first["validation_dt_1e-3"]) == {"before", "after"}  # run at the paper's step
     # Resuming a finished run does no further steps and reports the same gains.
     assert cli.main(args + ["--resume"]) == 0
     again = json.loads((tmp_path / "tuning.json").read_text())
