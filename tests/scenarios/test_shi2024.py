@@ -146,6 +146,16 @@ def test_torque_metrics_on_a_hand_computed_signal():
     assert float(shi2024.torque_metrics(ts, u, hold, band=0.01)["settle_time"]) == np.inf
     with pytest.raises(ValueError, match="`window` must be positive"):
         shi2024.torque_metrics(ts, u, hold, window=0.0)
+    # Regression (stop 47's note): a sample an ulp before the window's start (a clock summed
+    # in steps) was in the variation's window (8-ulp slack) but not in the final error's max.
+    ts = np.arange(11.0)
+    ts[6] = np.nextafter(6.0, 0.0)
+    u = np.zeros((11, 3))
+    u[6, 0] = 0.2
+    out = shi2024.torque_metrics(ts, u, np.zeros((11, 3)), band=0.1, window=4.0)
+    assert float(out["error_final"]) == 0.2
+    assert float(out["variation_rate"]) == pytest.approx(0.2 / 4, abs=1e-12)  # |u7 - u6|
+    np.testing.assert_array_equal(shi2024.final_window(ts, 4.0), ts > 5.5)
 
 
 def test_unshaped_variant_is_the_constant_command():

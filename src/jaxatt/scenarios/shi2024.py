@@ -69,6 +69,7 @@ from ..controllers import (
     TimeVaryingSlidingMode,
 )
 from ..metrics import chattering, overshoot, settling_time
+from ..metrics._chattering import in_window
 from ..observers import IntegralSlidingModeObserver
 from ..plants import (
     CantileverBeam,
@@ -271,6 +272,15 @@ def lyapunov(loop: ClosedLoop, traj: Trajectory) -> jax.Array:
     )
 
 
+def final_window(ts: Real[ArrayLike, " T"], window: float) -> jax.Array:
+    r"""Which samples lie in the final window $W = [t_{end} - w, t_{end}]$ [s]: a boolean mask of
+    shape `(T,)`. A sample time a few ulps below $t_{end} - w$ (a clock accumulated in steps of
+    `dt`) counts as on it, with the same 8-ulp slack [`jaxatt.metrics.chattering`][] gives its
+    window, so a window's peak and its variation read the same samples."""
+    ts = jnp.asarray(ts)
+    return in_window(ts, ts, ts[-1] - window, ts[-1])
+
+
 def torque_metrics(
     ts: Real[ArrayLike, " T"],
     u: Float[ArrayLike, "T 3"],
@@ -287,7 +297,8 @@ def torque_metrics(
 
     - `settle_time` [s]: the last exit of $e_\tau$ from $e_\tau \le$ `band`
       ([`jaxatt.metrics.settling_time`][]: interpolated; `inf` if the record ends outside);
-    - `error_final` [N m]: $\max_{t_k \in W} e_\tau(t_k)$, the steady-state torque error;
+    - `error_final` [N m]: $\max_{t_k \in W} e_\tau(t_k)$, the steady-state torque error
+      (the samples of [`final_window`][jaxatt.scenarios.shi2024.final_window]);
     - `variation_rate` [N m/s]: $\mathrm{TV}_W(u)/|W|$, the total variation
       $\sum_k\|u_{k+1} - u_k\|_1$ over the sample intervals inside $W$
       ([`jaxatt.metrics.chattering`][]) per second;
@@ -322,7 +333,7 @@ def torque_metrics(
     span = ts[-1] - jnp.maximum(start, ts[0])
     return {
         "settle_time": settling_time(ts, error, band),
-        "error_final": jnp.max(jnp.where(ts >= start, error, 0.0)),
+        "error_final": jnp.max(jnp.where(final_window(ts, window), error, 0.0)),
         "variation_rate": chattering(ts, u, start, ts[-1]) / span,
         "hold_variation_rate": chattering(ts, u_hold, start, ts[-1]) / span,
     }
@@ -345,7 +356,7 @@ def derived(loop: ClosedLoop | None, traj: Trajectory) -> dict[str, jax.Array]:
     att = jnp.max(jnp.abs(error), axis=1)
     rate = jnp.max(jnp.abs(traj.plant_states.omega), axis=1)
     u = traj.signals["u"]
-    late = ts >= ts[-1] - FINAL_WINDOW
+    late = final_window(ts, FINAL_WINDOW)
     out = {
         "attitude_settle_time_1e-2": settling_time(ts, att, 1e-2),
         "attitude_settle_time_1e-3": settling_time(ts, att, 1e-3),
@@ -376,7 +387,7 @@ def derived(loop: ClosedLoop | None, traj: Trajectory) -> dict[str, jax.Array]:
     if loop is not None and "d_hat" in traj.signals:
         lumped = jax.vmap(the_plant.lumped_disturbance)(ts, traj.plant_states, u)
         diff = jnp.abs(traj.signals["d_hat"] - lumped)
-        late = ts >= ts[-1] - OBSERVER_WINDOW
+        late = final_window(ts, OBSERVER_WINDOW)
         out["observer_error"] = diff
         out["observer_error_final"] = jnp.max(jnp.where(late[:, None], diff, 0.0))
     if loop is not None:
