@@ -124,7 +124,11 @@ class CubicBlend(eqx.Module):
     (cubic Hermite, $p = \sum_k d_k t^k$) and evaluated there by Horner's rule: the monomial
     form $c_4 + c_1x + c_2x^2 + c_3x^3$ cancels catastrophically near $x \approx 49$ (terms of
     $10^{10}$ summing to $10^2$). `coefficients` gives $[c_1, c_2, c_3, c_4]$, expanded
-    exactly (rational arithmetic) from the float64 local coefficients.
+    exactly (rational arithmetic) from the float64 local coefficients. For Wu 2018's cone
+    ($\theta = 2°$, $a_1 = 48.9$, $a_2 = 49$, $a_3 = 50$ m) they are $[-1.451673 \cdot 10^9,
+    2.965676 \cdot 10^7, -2.019561 \cdot 10^5, 2.368602 \cdot 10^{10}]$ to 7 digits, equal to
+    the exact rational solution of the end conditions to 4.4e-14 (SPEC's 7-digit $c_2$ and
+    $c_4$, ...677e7 and ...603e10, are one unit off in the last digit).
 
     **Arguments:** `sphere`, `corridor`, `a1`, `a2` [m] with $0 < a_1 < a_2$.
     """
