@@ -32,6 +32,32 @@ def test_simulate_refuses_a_trajectory_larger_than_memory_before_compiling(case)
     assert compile_count() == before
 
 
+def test_the_check_runs_inside_an_outer_jit_vmap_or_grad(case, monkeypatch):
+    # Regression (stop 48's note): inside an outer jit, vmap or grad the check was skipped, and
+    # the run compiled and failed in XLA's allocator (or grew until killed). It reads shapes
+    # only, so it runs there too. A small limit here (room for 3003 saves; 4001 asked), so
+    # that without the check the runs are small and the test fails cleanly.
+    loop, x0s, x0 = case
+    one = _memory.record_bytes(loop, x0, 0.0)
+    monkeypatch.setattr(_memory, "memory_limit", lambda: 3 * 1001 * one + 1)
+    before = compile_count()
+    with pytest.raises(ValueError, match=r"1 sample\(s\) x 4001 saves"):
+        jax.jit(lambda x: jaxatt.simulate(loop, x, 0.0, 4.0, dt=1e-3).ts[-1])(x0)
+    with pytest.raises(ValueError, match=r"1 sample\(s\) x 4001 saves"):
+        jax.vmap(lambda x: jaxatt.simulate(loop, x, 0.0, 4.0, dt=1e-3).ts[-1])(x0s)
+    # monte_carlo inside jit: the batch's size is its leading axis, known when tracing.
+    with pytest.raises(ValueError, match=r"4 sample\(s\) x 1001 saves"):
+        jax.jit(
+            lambda xs: mc.monte_carlo(loop, xs, 0.0, 1.0, dt=1e-3, keep_trajectories=True).status
+        )(x0s)
+    assert compile_count() == before
+    # grad runs the code around simulate eagerly (small programs), never the loop
+    loops = compile_count("integrate")
+    with pytest.raises(ValueError, match=r"1 sample\(s\) x 4001 saves"):
+        jax.grad(lambda x: jaxatt.simulate(loop, x, 0.0, 4.0, dt=1e-3).ts[-1])(x0)
+    assert compile_count("integrate") == loops
+
+
 def test_monte_carlo_counts_every_kept_sample_and_says_how_to_stream(case, monkeypatch):
     loop, x0s, x0 = case
     sim = Simulation(0.0, 1.0, 1e-3)

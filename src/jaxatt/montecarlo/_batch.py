@@ -641,7 +641,7 @@ def monte_carlo(
     sim = sim.with_performance(sim.performance.resolve(at_once))
     xs = (x0s, batched)
     stream = not keep_trajectories and streamable(metrics)
-    if not stream and not any_traced(xs):
+    if not stream:
         # Kept, every sample's trajectory is returned; reduced afterwards (metrics that cannot
         # stream), `at_once` of them are in flight.
         one = jtu.tree_map(lambda a: jax.ShapeDtypeStruct(a.shape[1:], a.dtype), xs)

@@ -70,13 +70,20 @@ def check_saved_memory(
     one sample's loop. The cheap bound (the saved initial states alone) is taken first; the
     loop state and signals are traced (`jax.eval_shape`) only when that bound reaches 1/64 of
     the memory, so an ordinary run pays nothing. `remedy` ends the message with the caller's
-    own way out (e.g. ", or leave `keep_trajectories` off")."""
+    own way out (e.g. ", or leave `keep_trajectories` off"). Only shapes are read, so it runs
+    under an outer `jit`, `vmap` or `grad` too (inside `vmap`, `simulate` sees one sample:
+    the batch is the caller's)."""
     limit = memory_limit()
     if limit is None:
         return
     saves = sim.n_steps // sim.save_every + 1
     if samples * saves * _bytes(x0) * 64 < limit:
         return
+    # Shapes only, so the check also runs inside an outer jit/vmap/grad (tracers).
+    closed_loop, x0 = jtu.tree_map(
+        lambda a: jax.ShapeDtypeStruct(a.shape, a.dtype) if eqx.is_array(a) else a,
+        (closed_loop, x0),
+    )
     needed = samples * saves * record_bytes(closed_loop, x0, sim.t0)
     if needed <= limit:
         return

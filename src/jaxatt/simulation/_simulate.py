@@ -128,7 +128,7 @@ def simulate(
     x0 = closed_loop.check_state(x0, "x0")
     if not any_traced((closed_loop, x0)):
         closed_loop.check_initial(sim.t0, x0)
-        check_saved_memory("simulate", closed_loop, x0, sim)
+    check_saved_memory("simulate", closed_loop, x0, sim)
     sim = sim.with_performance(sim.performance.resolve(1))
     traj = compiled(integrate, sim.performance, (closed_loop, x0))(closed_loop, x0, sim)
     return raise_on_failure(traj) if throw else traj
