@@ -227,11 +227,12 @@ def run(
             f"{validation_samples} (CLI: --samples 1 --validation-samples 1)."
         )
     checkpoints = {w: f"checkpoint_w{w:g}.eqx" for w in weights}
+    if resume:  # first: nothing is compiled or made without a checkpoint
+        require_checkpoint("shi2024_tuning", out_dir, list(checkpoints.values()))
     out = pathlib.Path(out_dir)
     x0s = initial_states(samples)
     base = template()
     if resume:
-        require_checkpoint("shi2024_tuning", out_dir, list(checkpoints.values()))
         for name in checkpoints.values():  # every weight's, before the first one runs
             if (out / name).is_file():
                 tuning.check_checkpoint(
