@@ -310,6 +310,17 @@ def test_a_failed_case_supports_no_claim():
     assert all(shi2024.claims(both | {"case2": meets})[key] for key in case2_keys)
     failed_claims = shi2024.claims(both | {"case2": meets | {"result": "nonfinite_state"}})
     assert not any(failed_claims[key] for key in case2_keys)
+    # The smoother reading with the smallest peak n1 is chosen among successful runs only
+    # (audit, stop 49: a failed reading with a small unphysical peak won, and a diverged one's
+    # None peak raised TypeError before metrics.json was written).
+    readings = both | {
+        "case2": run,
+        "case1_smoother_hz": smoothed | {"peak_modal_n1": 1e-3, "result": "invalid_plant"},
+        "case1_smoother_beam": smoothed | {"peak_modal_n1": None, "result": "nonfinite_state"},
+    }
+    assert shi2024.claims(readings)["smoother_reading_with_smallest_n1"] == "case1_smoother"
+    readings["case1_smoother"] = smoothed | {"result": "nonfinite_state"}
+    assert shi2024.claims(readings)["smoother_reading_with_smallest_n1"] is None
 
 
 def test_a_failed_case1_recheck_is_reported_as_failed(tmp_path, monkeypatch):

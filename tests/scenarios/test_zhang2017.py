@@ -174,11 +174,13 @@ def test_running_past_a_full_memory_is_reported_not_truncated_silently():
 
 def test_a_failed_run_supports_no_comparison():
     # Regression (review): a failed PD run (its settle time never: None) made PD^alpha "need
-    # less control time" (ratio 0) instead of supporting no claim.
+    # less control time" (ratio 0) instead of supporting no claim; and the ratios themselves
+    # (0.0 for the time, 2.0 for the energy) were written as numbers (audit, stop 49): None.
     pd = {"settle_time_1m": None, "energy": 10.0, "status": 1}
     fr = {"settle_time_1m": 8.0, "energy": 20.0, "status": 0}
     claims = zhang2017.claims({case: {"pd": pd, "pd_alpha": fr} for case in zhang2017.CASES})
     for case in zhang2017.CASES:
-        assert claims[case]["settle_time_ratio_pd_alpha_over_pd"] == 0.0
+        assert claims[case]["settle_time_ratio_pd_alpha_over_pd"] is None
+        assert claims[case]["energy_ratio_pd_alpha_over_pd"] is None
         assert not claims[case]["pd_alpha_needs_less_control_time"]
         assert not claims[case]["pd_alpha_consumes_more_energy"]

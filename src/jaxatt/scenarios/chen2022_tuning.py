@@ -282,10 +282,10 @@ def _write_report(out: pathlib.Path, report: dict, losses, cdfs) -> None:
             "max_peak_torque",
             "max_chattering",
         ):
-            before, after = report[tag]["before"][key], report[tag]["after"][key]
+            before, after = report[tag]["before"], report[tag]["after"]
             lines.append(
-                f"| {key} | {dt} | {format_statistic(key, before)} | "
-                f"{format_statistic(key, after)} |"
+                f"| {key} | {dt} | {format_statistic(key, before[key], before['failed'])} | "
+                f"{format_statistic(key, after[key], after['failed'])} |"
             )
     lines += [
         "",
@@ -301,11 +301,15 @@ def _write_report(out: pathlib.Path, report: dict, losses, cdfs) -> None:
     (out / "report.md").write_text("\n".join(lines))
 
 
-def format_statistic(key: str, value) -> str:
+def format_statistic(key: str, value, failed: int | None = None) -> str:
     """A report cell: `None` for a settling-time statistic means the samples it needs did not
-    all settle (not "not applicable")."""
+    all settle (not "not applicable"), or, when its batch had `failed` > 0 failed samples
+    (counted as never settling), that some of them failed: "not settled or failed". `failed`
+    unknown (None) reads the same."""
     if value is None:
-        return "not settled" if "settling_time" in key else "none (every sample failed)"
+        if "settling_time" not in key:
+            return "none (every sample failed)"
+        return "not settled" if failed == 0 else "not settled or failed"
     return str(value) if isinstance(value, int) else f"{value:.4g}"
 
 

@@ -134,10 +134,11 @@ def _chen_cell(settle_time, successful: bool) -> str:
     return _fmt(settle_time)
 
 
-def _cell(key: str, value) -> str:
-    """A held-out statistic: 3 significant digits, or what a missing value means."""
+def _cell(key: str, value, failed: int) -> str:
+    """A held-out statistic: 3 significant digits, or what a missing value means (`failed`:
+    the number of failed samples of its batch)."""
     if value is None or isinstance(value, int):
-        return chen2022_tuning.format_statistic(key, value)
+        return chen2022_tuning.format_statistic(key, value, failed)
     return _fmt(value)
 
 
@@ -169,7 +170,9 @@ def _write_report(out: pathlib.Path, summary: dict, n: int, tuning: dict) -> Non
         "| --- | --- | --- | --- | --- | --- |",
     ]
     for name, s in summary["monte_carlo"].items():
-        worst = "not settled" if s["worst"] == np.inf else _fmt(s["worst"])
+        # `worst` is inf for a sample that never settled and for one that failed.
+        unsettled = "not settled or failed" if s["failed"] else "not settled"
+        worst = unsettled if s["worst"] == np.inf else _fmt(s["worst"])
         lines.append(
             f"| {name} | {_fmt(s['mean'])} | {worst} | {_fmt(s['success_rate'])} "
             f"| {s['nonfinite']} | {s['failed']} |"
@@ -204,7 +207,10 @@ def _write_report(out: pathlib.Path, summary: dict, n: int, tuning: dict) -> Non
         "max_peak_torque",
         "max_chattering",
     ):
-        lines.append(f"| {key} | {_cell(key, before[key])} | {_cell(key, after[key])} |")
+        lines.append(
+            f"| {key} | {_cell(key, before[key], before['failed'])} | "
+            f"{_cell(key, after[key], after['failed'])} |"
+        )
     lines += [
         "",
         chen2022_tuning.reduction_sentence(tuning),

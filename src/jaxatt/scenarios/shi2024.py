@@ -625,12 +625,14 @@ def claims(metrics: dict) -> dict:
     def ok(*runs) -> bool:
         return all(run.get("result") == "successful" for run in runs)
 
-    best = min(
-        ("case1_smoother", "case1_smoother_hz", "case1_smoother_beam"),
-        key=lambda c: metrics[c]["peak_modal_n1"] if c in metrics else np.inf,
-    )
-    if best not in metrics:
-        best = None
+    # Among the readings that ran and ended successfully (a failed run's peak is not physical,
+    # and a diverged one's is None).
+    readings = [
+        c
+        for c in ("case1_smoother", "case1_smoother_hz", "case1_smoother_beam")
+        if c in metrics and ok(metrics[c]) and metrics[c]["peak_modal_n1"] is not None
+    ]
+    best = min(readings, key=lambda c: metrics[c]["peak_modal_n1"], default=None)
     out = {
         "case1_converges_within_60s_no_smoother": ok(c1)
         and _time(c1["attitude_settle_time_1e-2"]) <= 60

@@ -236,7 +236,9 @@ def trajectory_metrics(traj: Trajectory) -> dict:
 
 
 def claims(metrics: dict) -> dict:
-    """The paper's claims evaluated on the reproduction's numbers, per case."""
+    """The paper's claims evaluated on the reproduction's numbers, per case; the two ratios
+    are None unless both runs ended successfully (a failed run's time or energy is not a
+    number to compare)."""
 
     def t(value):
         return math.inf if value is None else value
@@ -252,11 +254,11 @@ def claims(metrics: dict) -> dict:
             "both_converge_to_1m": ok
             and math.isfinite(t(pd["settle_time_1m"]))
             and math.isfinite(t(fr["settle_time_1m"])),
-            "settle_time_ratio_pd_alpha_over_pd": ratio,
+            "settle_time_ratio_pd_alpha_over_pd": ratio if ok else None,
             "pd_alpha_needs_less_control_time": ok and ratio < 1.0,
             "pd_alpha_needs_much_less_control_time (ratio < 0.5)": ok and ratio < 0.5,
             "pd_alpha_consumes_more_energy": ok and fr["energy"] > pd["energy"],
-            "energy_ratio_pd_alpha_over_pd": fr["energy"] / pd["energy"],
+            "energy_ratio_pd_alpha_over_pd": fr["energy"] / pd["energy"] if ok else None,
         }
     return out
 
