@@ -44,3 +44,22 @@ def test_write_json_returns_what_a_reader_of_the_file_gets(tmp_path):
     returned = _io.write_json(tmp_path / "m.json", tree)
     assert returned == json.loads((tmp_path / "m.json").read_text())
     assert returned == {"never": None, "t": [1.0, 2.5], "a": [None, 1.0]}
+
+
+def test_every_scenario_writes_its_numbers_before_its_figures():
+    """Audit (stop 49): `reproduce` drew its figures first, so a figure that failed on a failed
+    run's NaN (Yu 2022's Fig. 3: `set_ylim` of NaN) left no `metrics.json`, the one file
+    that reports the failure. Read from each registered scenario's source (running them all
+    is the scenario tests' job)."""
+    import inspect
+
+    from jaxatt.scenarios import REGISTRY
+
+    for name, scenario in REGISTRY.items():
+        module = inspect.getmodule(scenario.reproduce)
+        source = inspect.getsource(module.reproduce)
+        written = source.find("write_json(out")
+        assert written >= 0, name
+        for figure_call in ("_write_figures(", ".savefig(", "figures("):
+            at = source.find(figure_call)
+            assert at < 0 or written < at, f"{name}: {figure_call} before write_json"

@@ -237,8 +237,10 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
             values = trajectory_metrics(one)
             metrics[case][name] = {key: _to_json(v) for key, v in values.items()}
             metrics[case][name]["successful"] = bool(one.successful)
+    # The numbers first: a figure that fails (e.g. on a failed run's NaN) leaves them.
+    written = write_json(out / "metrics.json", metrics)
     _write_figures(out, trajs)
-    return write_json(out / "metrics.json", metrics)
+    return written
 
 
 def _write_figures(out: pathlib.Path, trajs: dict[str, Trajectory]) -> None:

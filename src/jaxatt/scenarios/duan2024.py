@@ -450,8 +450,10 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
         "short": short,
     }
     metrics["timings"] = timings
+    # The numbers first: a figure that fails (e.g. on a failed run's NaN) leaves them.
+    written = write_json(out / "metrics.json", metrics)
     _write_figures(out, trajs, exact, metrics)
-    return write_json(out / "metrics.json", metrics)
+    return written
 
 
 def _write_figures(out: pathlib.Path, trajs: dict, exact: dict, metrics: dict) -> None:

@@ -256,8 +256,10 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
         "nominal": trajectory_metrics(nominal),
         "monte_carlo": _summary(rest, seed, horizon),
     }
+    # The numbers first: a figure that fails (e.g. on a failed run's NaN) leaves them.
+    written = write_json(out / "metrics.json", metrics)
     _write_figures(out, nominal)
-    return write_json(out / "metrics.json", metrics)
+    return written
 
 
 def _write_figures(out: pathlib.Path, traj: Trajectory) -> None:

@@ -124,6 +124,8 @@ def reproduce(
         "nominal": nominal,
         "monte_carlo": summary,
     }
+    # The numbers first: a figure that fails (e.g. on a failed run's NaN) leaves them.
+    written = write_json(out / "metrics.json", metrics)
     with plot.style():
         fig = plot.plot_overview(traj, title=TITLE, limit=TORQUE_LIMIT)
         fig.savefig(out / "overview.png")
@@ -151,7 +153,7 @@ def reproduce(
         ax.legend()
         fig.savefig(out / "montecarlo.png")
         plt.close(fig)
-    return write_json(out / "metrics.json", metrics)
+    return written
 
 
 def monte_carlo_summary(batch_metrics: dict, successful) -> dict:

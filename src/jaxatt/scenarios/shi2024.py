@@ -738,8 +738,10 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
         metrics[case] = result.metrics()
     metrics["observer_floor"] = None if short else observer_floor()
     metrics["claims"] = claims(metrics)
+    # The numbers first: a figure that fails (e.g. on a failed run's NaN) leaves them.
+    written = write_json(out / "metrics.json", metrics)
     _write_figures(out, runs, metrics["observer_floor"])
-    return write_json(out / "metrics.json", metrics)
+    return written
 
 
 LABELS = {

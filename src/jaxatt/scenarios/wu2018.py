@@ -468,8 +468,10 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
         "corridor": monte_carlo_summary(_take(on, slice(2, 2 + n)), corridor),
         "outside": monte_carlo_summary(_take(on, slice(2 + n, None)), outside),
     }
+    # The numbers first: a figure that fails (e.g. on a failed run's NaN) leaves them.
+    written = write_json(out / "metrics.json", metrics)
     _write_figures(out, on, off, direct, n)
-    return write_json(out / "metrics.json", metrics)
+    return written
 
 
 def _meridian(traj_rho: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

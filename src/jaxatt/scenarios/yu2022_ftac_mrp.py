@@ -453,8 +453,10 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
             "barrier_ratio_max": MC_RATIO_MAX,
             **{name: monte_carlo_summary(mc[name]) for name in ("FTAC", "FT")},
         }
+    # The numbers first: a figure that fails (e.g. on a failed run's NaN) leaves them.
+    written = write_json(out / "metrics.json", metrics)
     _write_figures(out, trajs, mc)
-    return write_json(out / "metrics.json", metrics)
+    return written
 
 
 def _result_name(traj: Trajectory) -> str:
@@ -503,8 +505,9 @@ def _write_figures(out: pathlib.Path, trajs: dict[str, Trajectory], mc: dict | N
             fig, ax = plt.subplots(figsize=(7, 3.2), layout="constrained")
             for i in range(3):
                 ax.plot(ts, u[:, i], lw=1.1, label=f"$\\tau_{i + 1}$")
-            span = 1.2 * np.max(np.abs(u[late]))
-            ax.set_ylim(-span, span)
+            peak_late = np.max(np.abs(u[late]))
+            if np.isfinite(peak_late) and peak_late > 0:  # a diverged run's NaN: autoscale
+                ax.set_ylim(-1.2 * peak_late, 1.2 * peak_late)
             ax.set_xlabel("t [s]")
             ax.set_ylabel("torque [N m]")
             ax.legend(ncol=3)

@@ -305,8 +305,10 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
         if progress:
             print("[zhang2017] alpha study")
         metrics["alpha_study"] = alpha_study()
+    # The numbers first: a figure that fails (e.g. on a failed run's NaN) leaves them.
+    written = write_json(out / "metrics.json", metrics)
     _write_figures(out, trajs)
-    return write_json(out / "metrics.json", metrics)
+    return written
 
 
 def _write_figures(out: pathlib.Path, trajs: dict) -> None:
