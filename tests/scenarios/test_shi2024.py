@@ -357,3 +357,32 @@ def test_a_failed_case1_recheck_is_reported_as_failed(tmp_path, monkeypatch):
     assert "failed (nonfinite_state)" in failed_row and "12" not in failed_row.split("|")[8]
     assert "not settled" in next(r for r in rows if r.startswith("| 100 |"))
     assert "| 40 | 0.02 |" in next(r for r in rows if r.startswith("| nan |"))
+
+
+def test_the_observer_floor_leaves_a_failed_run_out(monkeypatch):
+    """Audit (stop 49): `observer_floor` never read the runs' status, so a failed run's
+    unphysical late samples made a floor and bent the slope (a diverged one's NaN made the
+    slope NaN and the figure's title "slope nan"). The runs are stood in: run k's observer
+    error is 0.5 dt everywhere, and the run at dt = 2e-3 failed."""
+    import types
+
+    from jaxatt.simulation import Status
+
+    def stand_in(loop, *, horizon, dt):
+        ts = jnp.linspace(0.0, horizon, 401)
+        failed = dt == 2e-3
+        return types.SimpleNamespace(
+            ts=ts,
+            signals={"d_hat": jnp.full((401, 3), jnp.nan if failed else 0.5 * dt)},
+            status=jnp.asarray(int(Status.nonfinite_state if failed else Status.successful)),
+        )
+
+    monkeypatch.setattr(shi2024, "simulate_case", stand_in)
+    monkeypatch.setattr(shi2024, "lumped_disturbance", lambda loop, traj: jnp.zeros((401, 3)))
+    floor = shi2024.observer_floor((4e-3, 2e-3, 1e-3), horizon=40.0)
+    assert floor["result"] == ["successful", "nonfinite_state", "successful"]
+    assert floor["floor"] == [pytest.approx(2e-3), None, pytest.approx(5e-4)]
+    assert floor["floor_over_dt"][1] is None
+    assert floor["loglog_slope"] == pytest.approx(1.0, abs=1e-12)
+    one = shi2024.observer_floor((2e-3, 1e-3), horizon=40.0)
+    assert one["floor"][0] is None and one["loglog_slope"] is None  # one floor: no slope

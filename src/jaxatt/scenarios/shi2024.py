@@ -676,20 +676,31 @@ def claims(metrics: dict) -> dict:
 def observer_floor(dts=FLOOR_DTS, *, horizon: float = FLOOR_HORIZON) -> dict:
     r"""The observer's error floor against the step: case 1 without the smoother over
     `horizon` s at each `dt`; the floor is $\max_i|\hat T_{d,i} - \bar T_{d,i}|$ over the last
-    10 s. Returns the dts, floors, and the least-squares slope of log(floor) on log(dt)."""
+    10 s. Returns the dts, floors, each run's `result` (its status name), and the least-squares
+    slope of log(floor) on log(dt). A run that did not end successfully has no floor (None:
+    its late samples are not physical) and is left out of the slope (None with fewer than two
+    floors)."""
     loop = build("case1_no_smoother")
-    floors = []
+    floors, results = [], []
     for dt in dts:
         traj = simulate_case(loop, horizon=horizon, dt=dt)
+        results.append(Status(int(traj.status)).name)
+        if results[-1] != Status.successful.name:
+            floors.append(None)
+            continue
         diff = jnp.abs(traj.signals["d_hat"] - lumped_disturbance(loop, traj))
-        late = traj.ts >= horizon - OBSERVER_WINDOW
+        late = final_window(traj.ts, OBSERVER_WINDOW)
         floors.append(float(jnp.max(jnp.where(late[:, None], diff, 0.0))))
-    slope = float(np.polyfit(np.log(dts), np.log(floors), 1)[0])
+    measured = [(d, f) for d, f in zip(dts, floors) if f is not None]
+    slope = None
+    if len(measured) >= 2:
+        slope = float(np.polyfit(*np.log(np.array(measured)).T, 1)[0])
     return {
         "dt": list(dts),
         "floor": floors,
-        "floor_over_dt": [f / d for f, d in zip(floors, dts)],
+        "floor_over_dt": [None if f is None else f / d for f, d in zip(floors, dts)],
         "loglog_slope": slope,
+        "result": results,
         "switching_gain_L": 100.0,
         "dead_zone_half_width_L_dt_over_2": [50.0 * d for d in dts],
     }
@@ -850,12 +861,18 @@ def _write_figures(out: pathlib.Path, runs: dict, floor: dict | None) -> None:
 
         if floor is not None:
             fig, ax = plt.subplots(figsize=(5, 3.4), layout="constrained")
-            ax.loglog(floor["dt"], floor["floor"], "o-", label="measured floor")
+            measured = [(d, f) for d, f in zip(floor["dt"], floor["floor"]) if f is not None]
+            if measured:  # a failed run has no floor (None)
+                ax.loglog(*zip(*measured), "o-", label="measured floor")
             ax.loglog(floor["dt"], floor["dead_zone_half_width_L_dt_over_2"], "k--", label="L dt/2")
             ax.set_xlabel("dt [s]")
             ax.set_ylabel("observer error floor [N m]")
             ax.legend()
-            ax.set_title(f"RK4 dead zone: slope {floor['loglog_slope']:.2f}")
+            slope = floor["loglog_slope"]
+            ax.set_title(
+                "RK4 dead zone: "
+                + ("slope n/a (a run failed)" if slope is None else f"slope {slope:.2f}")
+            )
             fig.savefig(out / "fig_observer_floor.png")
             plt.close(fig)
 
