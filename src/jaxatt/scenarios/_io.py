@@ -9,7 +9,14 @@ happen within the horizon (computed as `inf`). For another field, its docstring 
 `null` stands for: a value that is not finite (NaN for an inconclusive LMI bound in
 `duan2024`), a field that does not apply (`observer_error_final` without an observer) or a
 stage short mode skips. Tuples and arrays are lists, NumPy scalars Python numbers
-(docs/getting-started.md states this for users)."""
+(docs/getting-started.md states this for users).
+
+Read a run's status first. Each run's block carries it (`result`, `status` or
+`successful`); in a run that did not end successfully the other numbers are not results: a
+`null` there may mean "failed", not "never", and a number computed from samples after the
+failure time is not physical, except after a constraint violation, whose physics goes on
+(Wu 2018's run without avoidance reports how deep it went). The claims and summaries built
+from these blocks check the status themselves."""
 
 import json
 import pathlib

@@ -18,7 +18,8 @@ class Scenario:
     - `build(**options) -> AbstractClosedLoop`: the closed loop, with the paper's parameters.
     - `reproduce(out_dir, *, short=False, progress=False) -> dict`: simulate, write figures
       and `metrics.json` to `out_dir`, return the metrics exactly as the file holds them
-      (`None` where the file has `null`: a time that never came; see `scenarios._io`).
+      (`None` where the file has `null`: a time that never came, or, in a run whose status
+      says it failed, a value that is not available; see `scenarios._io`).
       `short=True` is the CI mode.
     - `metrics(traj) -> dict`: the per-trajectory metrics `metrics.json` reports.
     """
