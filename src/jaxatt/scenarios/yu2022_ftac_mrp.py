@@ -543,7 +543,11 @@ def _write_figures(out: pathlib.Path, trajs: dict[str, Trajectory], mc: dict | N
         bins = np.linspace(0, top, 41)
         for name in ("FTAC", "FT"):
             diverged = peaks[name].size - finite[name].size
-            label = f"{name} ({diverged} non-finite, not shown)" if diverged else name
+            # metrics.json's violations: the samples past the bound, non-finite or unsuccessful
+            # (a failed sample's finite peak is drawn, but counted here, not passed off).
+            violations = int(np.sum(np.asarray(mc[name]["violated"])))
+            label = f"{name} ({violations} of {peaks[name].size} violate"
+            label += f"; {diverged} non-finite, not shown)" if diverged else ")"
             ax.hist(finite[name], bins=bins, alpha=0.6, color=colors[name], label=label)
         ax.axvline(RATE_LIMIT, color="k", ls="--", lw=0.8)
         ax.set_xlabel("$\\max_{t,i} |\\omega_i(t)|$ [rad/s]")
