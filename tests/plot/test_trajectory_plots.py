@@ -45,3 +45,21 @@ def test_plot_signal_labels_must_match_the_drawn_components():
         plot.plot_signal(_trajectory(6), "u", labels=["a", "b", "c"])
     ax = plot.plot_signal(_trajectory(6), "u", labels=list("abc"), components=slice(3, 6))
     assert [line.get_label() for line in ax.get_lines()] == ["a", "b", "c"]
+
+
+def test_a_failed_trajectory_is_marked_with_its_status_and_time():
+    # Audit (stop 49): a trajectory that failed (simulate(..., throw=False)) was drawn as an
+    # ordinary one: nothing in the figure said its samples after the failure are not physical.
+    from jaxatt.simulation import Status
+
+    ok = _trajectory(3)
+    labels = [line.get_label() for line in plot.plot_signal(ok, "u").get_lines()]
+    assert labels == ["u[0]", "u[1]", "u[2]"]
+    failed = Trajectory(
+        ok.ts, (), ok.signals, jnp.array(int(Status.nonfinite_state)), jnp.array(0.5), {}
+    )
+    ax = plot.plot_control(failed)
+    marks = [line for line in ax.get_lines() if line.get_label().startswith("nonfinite_state")]
+    assert len(marks) == 1 and marks[0].get_label() == "nonfinite_state at t = 0.5 s"
+    assert list(marks[0].get_xdata()) == [0.5, 0.5]
+    assert "nonfinite_state at t = 0.5 s" in [t.get_text() for t in ax.get_legend().get_texts()]

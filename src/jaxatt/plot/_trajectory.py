@@ -9,7 +9,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from ..simulation import Trajectory
+from ..simulation import Status, Trajectory
 
 
 _AXIS_LABELS = ("x", "y", "z")
@@ -47,6 +47,21 @@ def _new_axes(ax: Axes | None) -> Axes:
     return ax
 
 
+def _mark_failure(ax: Axes, traj: Trajectory) -> None:
+    """A trajectory that did not end successfully says so in its axes: a dotted red line at
+    its failure time, labelled with its status (its samples after that time are not
+    physical, except after a constraint violation)."""
+    status = int(np.asarray(traj.status))
+    if status == Status.successful:
+        return
+    t = float(np.asarray(traj.failure_time))
+    label = Status(status).name + (f" at t = {t:.4g} s" if np.isfinite(t) else "")
+    if np.isfinite(t):
+        ax.axvline(t, color="C3", lw=1.0, ls=":", label=label)
+    else:
+        ax.plot([], [], color="C3", lw=1.0, ls=":", label=label)
+
+
 def plot_signal(
     traj: Trajectory,
     name: str,
@@ -66,6 +81,10 @@ def plot_signal(
     - `labels`: legend entries per component.
     - `components`: which components to draw (e.g. `slice(1, 4)` for a quaternion's vector part).
     - `ylabel`: the y-axis label; `log`: plot `|value|` on a log axis.
+
+    A trajectory whose status is not successful (`simulate(..., throw=False)`) gets a dotted
+    red line at its failure time, labelled with the status, so a failed run never looks like
+    an ordinary one.
 
     **Returns:** the axes.
     """
@@ -91,6 +110,7 @@ def plot_signal(
     ax = _new_axes(ax)
     for column, label in zip(values.T, labels):
         ax.plot(ts, np.abs(column) if log else column, label=label, lw=1.2)
+    _mark_failure(ax, traj)
     if log:
         ax.set_yscale("log")
     ax.set_xlabel("t [s]")
