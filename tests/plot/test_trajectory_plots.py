@@ -63,3 +63,13 @@ def test_a_failed_trajectory_is_marked_with_its_status_and_time():
     assert len(marks) == 1 and marks[0].get_label() == "nonfinite_state at t = 0.5 s"
     assert list(marks[0].get_xdata()) == [0.5, 0.5]
     assert "nonfinite_state at t = 0.5 s" in [t.get_text() for t in ax.get_legend().get_texts()]
+
+
+def test_status_label_names_a_failed_run_and_adds_nothing_to_a_successful_one():
+    from jaxatt.simulation import Status
+
+    assert plot.status_label(jnp.array(0), jnp.array(jnp.inf)) == ""
+    assert (
+        plot.status_label(jnp.array(int(Status.constraint_violated)), jnp.array(1.25))
+        == " (constraint_violated at t = 1.25 s)"
+    )

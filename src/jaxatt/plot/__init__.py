@@ -15,6 +15,7 @@ from ._trajectory import (
     plot_overview as plot_overview,
     plot_rate_error as plot_rate_error,
     plot_signal as plot_signal,
+    status_label as status_label,
     style as style,
 )
 from ._tuning import plot_loss_curve as plot_loss_curve

@@ -6,6 +6,7 @@ from collections.abc import Iterator, Sequence
 import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
+from jaxtyping import ArrayLike, Int, Real
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
@@ -47,15 +48,32 @@ def _new_axes(ax: Axes | None) -> Axes:
     return ax
 
 
+def _failure_text(status, failure_time) -> str:
+    """`""` for a successful run, else `"<status> at t = <failure_time> s"`."""
+    status = int(np.asarray(status))
+    if status == Status.successful:
+        return ""
+    t = float(np.asarray(failure_time))
+    return Status(status).name + (f" at t = {t:.4g} s" if np.isfinite(t) else "")
+
+
+def status_label(status: Int[ArrayLike, ""], failure_time: Real[ArrayLike, ""]) -> str:
+    """What a legend entry adds for one run: `""` for a successful run, else
+    `" (<status> at t = <failure_time> s)"` (e.g. `" (constraint_violated at t = 1.2 s)"`), so
+    a failed run is never drawn as an ordinary one. `status` and `failure_time` are one
+    sample's `Trajectory.status` and `Trajectory.failure_time` (scalars)."""
+    text = _failure_text(status, failure_time)
+    return f" ({text})" if text else ""
+
+
 def _mark_failure(ax: Axes, traj: Trajectory) -> None:
     """A trajectory that did not end successfully says so in its axes: a dotted red line at
     its failure time, labelled with its status (its samples after that time are not
     physical, except after a constraint violation)."""
-    status = int(np.asarray(traj.status))
-    if status == Status.successful:
+    label = _failure_text(traj.status, traj.failure_time)
+    if not label:
         return
     t = float(np.asarray(traj.failure_time))
-    label = Status(status).name + (f" at t = {t:.4g} s" if np.isfinite(t) else "")
     if np.isfinite(t):
         ax.axvline(t, color="C3", lw=1.0, ls=":", label=label)
     else:

@@ -262,6 +262,9 @@ def _write_figures(out: pathlib.Path, trajs: dict[str, Trajectory]) -> None:
                 fig, axes = plt.subplots(3, 1, figsize=(7, 7), sharex=True, layout="constrained")
                 for name, traj in trajs.items():
                     values = np.asarray(traj.signals[key][case_index])[:, comps]
+                    name += plot.status_label(
+                        traj.status[case_index], traj.failure_time[case_index]
+                    )
                     for i, ax in enumerate(axes):
                         ax.plot(ts[::stride], values[::stride, i], label=name, lw=1.1)
                 for i, ax in enumerate(axes):
@@ -279,7 +282,10 @@ def _write_figures(out: pathlib.Path, trajs: dict[str, Trajectory]) -> None:
             for ax, (name, traj) in zip(axes, trajs.items()):
                 for case_index, case in enumerate(CASES):
                     s = np.asarray(traj.signals["s"][case_index])[:, i]
-                    ax.plot(ts[::stride], s[::stride], label=case, lw=1.1)
+                    status = plot.status_label(
+                        traj.status[case_index], traj.failure_time[case_index]
+                    )
+                    ax.plot(ts[::stride], s[::stride], label=case + status, lw=1.1)
                 ax.set_ylabel(f"{name}: $s_{i + 1}$")
                 ax.legend()
             axes[-1].set_xlabel("t [s]")

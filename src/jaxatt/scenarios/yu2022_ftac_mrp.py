@@ -475,8 +475,9 @@ def _write_figures(out: pathlib.Path, trajs: dict[str, Trajectory], mc: dict | N
             fig, axes = plt.subplots(3, 1, figsize=(7, 7), sharex=True, layout="constrained")
             for name, traj in trajs.items():
                 sigma = np.asarray(traj.plant_states.sigma[k])
+                label = name + plot.status_label(traj.status[k], traj.failure_time[k])
                 for i, ax in enumerate(axes):
-                    ax.plot(ts, sigma[:, i], color=colors[name], label=name, lw=1.1)
+                    ax.plot(ts, sigma[:, i], color=colors[name], label=label, lw=1.1)
             for i, ax in enumerate(axes):
                 ax.set_ylabel(f"$\\sigma_{i + 1}$")
             axes[0].legend(ncol=3)
@@ -488,8 +489,9 @@ def _write_figures(out: pathlib.Path, trajs: dict[str, Trajectory], mc: dict | N
             fig, axes = plt.subplots(3, 1, figsize=(7, 7), sharex=True, layout="constrained")
             for name, traj in trajs.items():
                 omega = np.asarray(traj.plant_states.omega[k])
+                label = name + plot.status_label(traj.status[k], traj.failure_time[k])
                 for i, ax in enumerate(axes):
-                    ax.plot(ts, omega[:, i], color=colors[name], label=name, lw=1.1)
+                    ax.plot(ts, omega[:, i], color=colors[name], label=label, lw=1.1)
             for i, ax in enumerate(axes):
                 ax.axhline(RATE_LIMIT, color="k", ls="--", lw=0.7)
                 ax.axhline(-RATE_LIMIT, color="k", ls="--", lw=0.7)
