@@ -262,11 +262,11 @@ def _write_figures(out: pathlib.Path, trajs: dict[str, Trajectory]) -> None:
                 fig, axes = plt.subplots(3, 1, figsize=(7, 7), sharex=True, layout="constrained")
                 for name, traj in trajs.items():
                     values = np.asarray(traj.signals[key][case_index])[:, comps]
-                    name += plot.status_label(
+                    entry = name + plot.status_label(
                         traj.status[case_index], traj.failure_time[case_index]
                     )
                     for i, ax in enumerate(axes):
-                        ax.plot(ts[::stride], values[::stride, i], label=name, lw=1.1)
+                        ax.plot(ts[::stride], values[::stride, i], label=entry, lw=1.1)
                 for i, ax in enumerate(axes):
                     ax.set_ylabel(label % (i + 1))
                     if key == "u":

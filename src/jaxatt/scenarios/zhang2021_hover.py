@@ -39,8 +39,8 @@ matters:
    (`rate_term="literal"` for the printed one).
 7. Finite-time envelopes with $q_i$ recomputed from $\rho_0$, $\rho_\infty$, $T$, $\alpha$
    (0.0348533, 0.012541, 0.011084, 0.0013824; SPEC's 0.034855 for $q_1$ is an arithmetic
-   slip); the printed $q_i$ are infeasible (the position
-   envelope would collapse within 40 s). `alpha_reading="swapped"` uses
+   slip); the printed $q_i$ are infeasible (the position envelope would collapse within
+   40 s). `alpha_reading="swapped"` uses
    $\alpha_3 = 0.5$, $\alpha_4 = 0.7$, which reproduces the printed $q_3$, $q_4$ exactly.
 8. Table 1's "initial relative" entries are the error states $e_1(0)$, $e_2(0)$;
    $\sigma_p(0) = 0$, $\omega_p(0) = 0$, so $\sigma_t(0) = -\sigma_e(0)$ and
