@@ -73,3 +73,22 @@ def test_status_label_names_a_failed_run_and_adds_nothing_to_a_successful_one():
         plot.status_label(jnp.array(int(Status.constraint_violated)), jnp.array(1.25))
         == " (constraint_violated at t = 1.25 s)"
     )
+
+
+def test_mark_failure_refuses_a_batch_and_draws_nothing_for_a_successful_run():
+    from jaxatt.simulation import Status
+
+    fig, ax = plt.subplots()
+    plot.mark_failure(ax, _trajectory(3))
+    assert ax.get_lines() == []
+    ok = _trajectory(3)
+    batch = Trajectory(
+        jnp.stack([ok.ts, ok.ts]),
+        (),
+        {k: jnp.stack([v, v]) for k, v in ok.signals.items()},
+        jnp.array([0, int(Status.nonfinite_state)]),
+        jnp.array([jnp.inf, 0.5]),
+        {},
+    )
+    with pytest.raises(ValueError, match=r"mark_failure: `traj` must be a single trajectory"):
+        plot.mark_failure(ax, batch)

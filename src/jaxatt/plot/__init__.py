@@ -10,6 +10,7 @@ from ._montecarlo import (
     plot_settling_distribution as plot_settling_distribution,
 )
 from ._trajectory import (
+    mark_failure as mark_failure,
     plot_attitude_error as plot_attitude_error,
     plot_control as plot_control,
     plot_overview as plot_overview,

@@ -66,10 +66,24 @@ def status_label(status: Int[ArrayLike, ""], failure_time: Real[ArrayLike, ""]) 
     return f" ({text})" if text else ""
 
 
-def _mark_failure(ax: Axes, traj: Trajectory) -> None:
-    """A trajectory that did not end successfully says so in its axes: a dotted red line at
-    its failure time, labelled with its status (its samples after that time are not
-    physical, except after a constraint violation)."""
+def mark_failure(ax: Axes, traj: Trajectory) -> None:
+    """Mark a run that did not end successfully on `ax`: a dotted red line at its failure time,
+    with its status as the legend entry (e.g. `"nonfinite_state at t = 0.5 s"`); nothing for a
+    successful run. For a figure drawn by hand from one trajectory (its samples after the
+    failure time are not physical, except after a constraint violation); `plot_signal` and the
+    figures built on it call it themselves. Where several runs share the axes, name each in its
+    legend entry with [`status_label`][jaxatt.plot.status_label] instead.
+
+    **Arguments:**
+    - `ax`: the axes the trajectory is drawn on.
+    - `traj`: a single (unbatched) trajectory; index a batch first
+      (`jax.tree.map(lambda x: x[k], traj)`).
+    """
+    if np.ndim(traj.status) != 0:
+        raise ValueError(
+            "mark_failure: `traj` must be a single trajectory (its `status` a scalar), got a "
+            f"status of shape {np.shape(traj.status)}; index a batch first."
+        )
     label = _failure_text(traj.status, traj.failure_time)
     if not label:
         return
@@ -128,7 +142,7 @@ def plot_signal(
     ax = _new_axes(ax)
     for column, label in zip(values.T, labels):
         ax.plot(ts, np.abs(column) if log else column, label=label, lw=1.2)
-    _mark_failure(ax, traj)
+    mark_failure(ax, traj)
     if log:
         ax.set_yscale("log")
     ax.set_xlabel("t [s]")

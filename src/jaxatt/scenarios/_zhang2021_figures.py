@@ -21,7 +21,8 @@ PANELS = (
 
 def errors_with_envelopes(trajectories: dict, name: str) -> plt.Figure:
     """Figs. 3-6 / 9-12 / 15-18 equivalents: the four error groups of controller `name`, each
-    component with $\\pm\\rho_i(t)$ when the controller has envelopes."""
+    component with $\\pm\\rho_i(t)$ when the controller has envelopes (a failed run is marked
+    in every panel)."""
     traj = trajectories[name]
     ts = np.asarray(traj.ts)
     fig, axes = plt.subplots(2, 2, figsize=(10, 6), layout="constrained", sharex=True)
@@ -33,6 +34,7 @@ def errors_with_envelopes(trajectories: dict, name: str) -> plt.Figure:
             rho = np.asarray(traj.signals["envelope"])[:, first]
             ax.plot(ts, rho, "k--", lw=0.8, label=r"$\pm\rho$")
             ax.plot(ts, -rho, "k--", lw=0.8)
+        plot.mark_failure(ax, traj)
         ax.set_title(title, fontsize=9)
         ax.set_xlabel("t [s]")
         ax.legend(fontsize=7)
@@ -41,12 +43,12 @@ def errors_with_envelopes(trajectories: dict, name: str) -> plt.Figure:
 
 
 def comparison(trajectories: dict, signal: str, ylabel: str, component: int = 0) -> plt.Figure:
-    """One component of `signal` for the three controllers (e.g. Fig. 15's x position)."""
+    """One component of `signal` for the three controllers (e.g. Fig. 15's x position); a run
+    that did not end successfully says so in its legend entry."""
     fig, ax = plt.subplots(figsize=(7, 3.5), layout="constrained")
     for name, traj in trajectories.items():
-        ax.plot(
-            np.asarray(traj.ts), np.asarray(traj.signals[signal])[:, component], label=LABELS[name]
-        )
+        label = LABELS[name] + plot.status_label(traj.status, traj.failure_time)
+        ax.plot(np.asarray(traj.ts), np.asarray(traj.signals[signal])[:, component], label=label)
     ax.axhline(0.0, color="k", lw=0.5)
     ax.set_xlabel("t [s]")
     ax.set_ylabel(ylabel)
@@ -63,6 +65,7 @@ def controls(trajectories: dict, name: str) -> plt.Figure:
         values = np.asarray(traj.signals[signal])
         for i, axis in enumerate("xyz"):
             ax.plot(ts, values[:, i], label=axis)
+        plot.mark_failure(ax, traj)
         ax.set_xlabel("t [s]")
         ax.set_ylabel(f"{signal} [{unit}]")
         ax.legend(fontsize=7)

@@ -474,6 +474,9 @@ def _write_figures(out: pathlib.Path, trajs: dict, exact: dict, metrics: dict) -
             for i in range(x.shape[1]):
                 ax.plot(ts, x[:, i], lw=1.0, color=f"C{i // AGENTS}")
             ax.axhline(6.0, color="k", ls="--", lw=0.7)
+            plot.mark_failure(ax, traj)
+            if ax.get_legend_handles_labels()[0]:
+                ax.legend(fontsize=8)
             ax.set_xlim(0, 20)
             ax.set_xlabel("t [s]")
             ax.set_ylabel("$x_{n,m}$ (colour: group)")

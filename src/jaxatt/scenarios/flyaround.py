@@ -277,7 +277,10 @@ def _write_figures(out: pathlib.Path, traj: Trajectory) -> None:
         ax.set_xlabel("x radial [m]")
         ax.set_ylabel("y along-track [m]")
         ax.set_zlabel("z normal [m]")
-        ax.set_title("Fly-around in the target's Hill frame")
+        ax.set_title(
+            "Fly-around in the target's Hill frame"
+            + plot.status_label(traj.status, traj.failure_time)
+        )
         ax2 = fig.add_subplot(1, 2, 2)
         ax2.semilogy(
             ts, np.asarray(traj.signals["position_norm"]) + 1e-9, label="position error [m]"
@@ -287,6 +290,7 @@ def _write_figures(out: pathlib.Path, traj: Trajectory) -> None:
             np.degrees(np.asarray(traj.signals["pointing_error"])) + 1e-9,
             label="pointing error [deg]",
         )
+        plot.mark_failure(ax2, traj)
         ax2.set_xlabel("t [s]")
         ax2.legend()
         fig.savefig(out / "fig_flyaround.png")

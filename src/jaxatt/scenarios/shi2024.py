@@ -775,8 +775,9 @@ def _write_figures(out: pathlib.Path, runs: dict, floor: dict | None) -> None:
         for case in cases:
             result = runs[case]
             values = np.asarray(getter(result))
+            label = LABELS[case] + plot.status_label(result.traj.status, result.traj.failure_time)
             for i, ax in enumerate(axes):
-                ax.plot(np.asarray(result.traj.ts), values[:, i], lw=1.0, label=LABELS[case])
+                ax.plot(np.asarray(result.traj.ts), values[:, i], lw=1.0, label=label)
         for i, ax in enumerate(axes):
             ax.set_ylabel(ylabel.format(i=i + 1))
         axes[0].legend(fontsize=7)
@@ -796,6 +797,7 @@ def _write_figures(out: pathlib.Path, runs: dict, floor: dict | None) -> None:
             ax.semilogy(
                 np.asarray(result.traj.ts), error[:, i] + 1e-12, lw=0.8, label=f"axis {i + 1}"
             )
+        plot.mark_failure(ax, result.traj)
         ax.set_xlabel("t [s]")
         ax.set_ylabel(r"$|\hat T_{d,i} - \bar T_{d,i}|$ [N m]")
         ax.legend(ncol=3)

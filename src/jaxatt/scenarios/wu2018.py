@@ -495,18 +495,23 @@ def plot_safe_set(ax, *, x_range=(-5.0, 70.0), r_max=40.0, resolution=600) -> No
 def _write_figures(out: pathlib.Path, on, off, direct, n: int) -> None:
     import matplotlib.pyplot as plt
 
+    from .. import plot
+
+    def named(label: str, traj, k: int) -> str:  # a failed run says so in its legend entry
+        return label + plot.status_label(traj.status[k], traj.failure_time[k])
+
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
     for ax, (x_range, r_max) in zip(axes, (((-5, 70), 40), ((44, 52), 12))):
         plot_safe_set(ax, x_range=x_range, r_max=r_max)
         for k, (label, style) in enumerate((("Case 1", "C0-"), ("Case 2 (hold point)", "C1-"))):
             x, r = _meridian(np.asarray(on.states.plant.orbit.rho)[k])
-            ax.plot(x, r, style, label=label)
+            ax.plot(x, r, style, label=named(label, on, k))
         for k, label in enumerate(("Case 1, no avoidance", "Case 2, no avoidance")):
             x, r = _meridian(np.asarray(off.states.plant.orbit.rho)[k])
-            ax.plot(x, r, f"C{k}--", lw=0.8, label=label)
+            ax.plot(x, r, f"C{k}--", lw=0.8, label=named(label, off, k))
         if direct is not None:
             x, r = _meridian(np.asarray(direct.states.plant.orbit.rho)[0])
-            ax.plot(x, r, "C3-", label="Case 2, direct")
+            ax.plot(x, r, "C3-", label=named("Case 2, direct", direct, 0))
         ax.set_xlim(*x_range)
         ax.set_ylim(0, r_max)
     axes[0].legend(fontsize=7)
@@ -520,6 +525,7 @@ def _write_figures(out: pathlib.Path, on, off, direct, n: int) -> None:
     ts = np.asarray(on.ts)[0]
     for k, label in enumerate(("Case 1", "Case 2 (hold point)")):
         rho = np.asarray(on.states.plant.orbit.rho)[k]
+        label = named(label, on, k)
         axes[0, 0].semilogy(ts, np.linalg.norm(rho - np.array(R_D), axis=-1), label=label)
         e = np.linalg.norm(np.asarray(on.signals["sigma_error"])[k], axis=-1)
         axes[0, 1].semilogy(ts, np.maximum(e, 1e-12), label=label)

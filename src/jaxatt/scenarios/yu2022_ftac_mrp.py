@@ -502,11 +502,13 @@ def _write_figures(out: pathlib.Path, trajs: dict[str, Trajectory], mc: dict | N
             fig.savefig(out / f"fig2_omega_{case}.png")
             plt.close(fig)
 
-            u = np.asarray(trajs["FTAC"].signals["u"][k])
+            ftac = jax.tree_util.tree_map(lambda x: x[k], trajs["FTAC"])
+            u = np.asarray(ftac.signals["u"])
             late = ts >= 0.1
             fig, ax = plt.subplots(figsize=(7, 3.2), layout="constrained")
             for i in range(3):
                 ax.plot(ts, u[:, i], lw=1.1, label=f"$\\tau_{i + 1}$")
+            plot.mark_failure(ax, ftac)
             peak_late = np.max(np.abs(u[late]))
             if np.isfinite(peak_late) and peak_late > 0:  # a diverged run's NaN: autoscale
                 ax.set_ylim(-1.2 * peak_late, 1.2 * peak_late)
@@ -520,12 +522,11 @@ def _write_figures(out: pathlib.Path, trajs: dict[str, Trajectory], mc: dict | N
             fig.savefig(out / f"fig3_ftac_torque_{case}.png")
             plt.close(fig)
 
-            error = np.asarray(
-                trajs["FTAC"].signals["d_hat"][k] - trajs["FTAC"].signals["disturbance"][k]
-            )
+            error = np.asarray(ftac.signals["d_hat"] - ftac.signals["disturbance"])
             fig, ax = plt.subplots(figsize=(7, 3.2), layout="constrained")
             for i in range(3):
                 ax.semilogy(ts, np.abs(error[:, i]) + 1e-12, lw=0.8, label=f"axis {i + 1}")
+            plot.mark_failure(ax, ftac)
             ax.axhline(OBSERVER_TOLERANCE, color="k", ls="--", lw=0.7)
             ax.set_xlabel("t [s]")
             ax.set_ylabel("$|\\hat d_i - d_i|$ [N m]")

@@ -349,9 +349,10 @@ def _write_figures(out: pathlib.Path, trajs: dict) -> None:
         fig, axes = plt.subplots(2, 2, figsize=(10, 6), layout="constrained")
         for name, traj in trajs.items():
             ts = np.asarray(traj.ts)
-            axes[0, 0].plot(ts, np.asarray(traj.signals["position_norm"]), label=name)
+            label = name + plot.status_label(traj.status, traj.failure_time)
+            axes[0, 0].plot(ts, np.asarray(traj.signals["position_norm"]), label=label)
             axes[0, 1].semilogy(
-                ts, np.degrees(np.asarray(traj.signals["attitude_error_angle"])) + 1e-9, label=name
+                ts, np.degrees(np.asarray(traj.signals["attitude_error_angle"])) + 1e-9, label=label
             )
             u = np.asarray(traj.signals["u"])
             axes[1, 0].plot(ts, u[:, :3], lw=0.6)

@@ -326,9 +326,10 @@ def _write_figures(out: pathlib.Path, trajs: dict) -> None:
                 ts = np.asarray(traj.ts)
                 rho = np.asarray(traj.plant_states.rho)
                 rho_dot = np.asarray(traj.plant_states.rho_dot)
+                label = labels[name] + plot.status_label(traj.status, traj.failure_time)
                 for i, axis in enumerate("xyz"):
-                    axes[i, 0].plot(ts, rho[:, i], color=colors[name], label=labels[name])
-                    axes[i, 1].plot(ts, rho_dot[:, i], color=colors[name], label=labels[name])
+                    axes[i, 0].plot(ts, rho[:, i], color=colors[name], label=label)
+                    axes[i, 1].plot(ts, rho_dot[:, i], color=colors[name], label=label)
                     axes[i, 0].set_ylabel(f"${axis}$ [m]")
                     axes[i, 1].set_ylabel(f"$\\dot {axis}$ [m/s]")
             axes[0, 0].legend()
@@ -342,10 +343,9 @@ def _write_figures(out: pathlib.Path, trajs: dict) -> None:
             for name in CONTROLLERS:
                 traj = trajs[case, name]
                 u = np.asarray(traj.signals["u"])
+                label = labels[name] + plot.status_label(traj.status, traj.failure_time)
                 for i, ax in enumerate(axes):
-                    ax.plot(
-                        np.asarray(traj.ts), u[:, i], color=colors[name], lw=0.6, label=labels[name]
-                    )
+                    ax.plot(np.asarray(traj.ts), u[:, i], color=colors[name], lw=0.6, label=label)
                     ax.set_ylabel(f"$u_{'xyz'[i]}$ [m/s$^2$]")
             axes[0].legend()
             axes[-1].set_xlabel("t [s]")
