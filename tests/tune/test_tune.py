@@ -1,5 +1,8 @@
 """Tuning: transforms, configuration errors, gradient check, checkpoint/resume."""
 
+import json
+import os
+import pathlib
 import re
 
 import equinox as eqx
@@ -325,6 +328,110 @@ def test_interrupted_run_resumes_bit_identically(tmp_path):
                 resume=True,
                 **common,
             )
+
+
+def test_resume_compares_the_closed_loop_objective_and_optimizer_and_names_what_differs(
+    tmp_path,
+):
+    # Regression (stop 49's note): a checkpoint was compared only by its training batch,
+    # starting gains and parameter names, so resuming with another plant (here an inertia),
+    # another objective (a horizon) or another injected learning rate continued silently and
+    # the result mixed two problems. No closed loop is compiled: the checkpoint is the state
+    # `tune` starts from, written with `tune`'s fingerprint.
+    from jaxatt.tune._fingerprint import fingerprint
+
+    loop, x0s, params, objective = _small_problem()
+    optimizer = optax.inject_hyperparams(optax.adam)(learning_rate=0.1)
+    unconstrained = tune.initial_unconstrained(loop, params)
+    state = tune.TuneState(
+        step=jnp.array(1),
+        unconstrained=unconstrained,
+        opt_state=optimizer.init(unconstrained),
+        losses=jnp.full(3, jnp.nan),
+    )
+    path = tmp_path / "run.eqx"
+    tune.save_checkpoint(
+        path, state, fingerprint(loop, params, x0s, objective, optimizer.init(unconstrained))
+    )
+    compiled = compile_count("_loss_and_grad"), compile_count("_evaluate")
+    check = dict(steps=3, optimizer=optimizer, objective=objective)
+    assert tune.check_checkpoint(loop, params, x0s, path, **check) == 1
+    heavier = eqx.tree_at(lambda m: m.plant.body.inertia, loop, loop.plant.body.inertia * 1.01)
+    longer = tune.SettlingObjective(t1=1.5, dt=2e-2, tolerance=1e-2)
+    slower = optax.inject_hyperparams(optax.adam)(learning_rate=0.05)
+    cases = (
+        (dict(template=heavier), "its closed loop"),
+        (dict(objective=longer), "its objective"),
+        (dict(optimizer=slower), "its optimizer's initial state"),
+    )
+    for changed, what in cases:
+        call = dict(template=loop, optimizer=optimizer, objective=objective) | changed
+        with pytest.raises(tune.CheckpointMismatchError, match="another tuning problem") as info:
+            tune.check_checkpoint(
+                call["template"],
+                params,
+                x0s,
+                path,
+                steps=3,
+                optimizer=call["optimizer"],
+                objective=call["objective"],
+            )
+        message = str(info.value)
+        assert f"what differs from this call's: {what}" in message, message
+        assert "; its " not in message, message  # only what differs
+        with pytest.raises(tune.CheckpointMismatchError, match=re.escape(what)):
+            tune.tune(
+                call["template"],
+                params,
+                call["objective"],
+                x0s,
+                steps=3,
+                optimizer=call["optimizer"],
+                checkpoint=path,
+                resume=True,
+                progress=False,
+            )
+    # Without an objective, check_checkpoint compares the rest.
+    assert tune.check_checkpoint(loop, params, x0s, path, steps=3, optimizer=optimizer) == 1
+    # A checkpoint whose fingerprint is one plain string (as written before the parts) is
+    # compared as the run's part.
+    legacy = tmp_path / "legacy.eqx"
+    run_part = fingerprint(loop, params, x0s)["run"]
+    tune.save_checkpoint(legacy, state, run_part)
+    assert tune.check_checkpoint(loop, params, x0s, legacy, **check) == 1
+    with pytest.raises(tune.CheckpointMismatchError, match="its training batch"):
+        other = QuaternionState(x0s.q, x0s.omega + 0.01)
+        tune.check_checkpoint(loop, params, other, legacy, **check)
+    assert (compile_count("_loss_and_grad"), compile_count("_evaluate")) == compiled
+
+
+def test_a_fingerprint_is_the_same_in_every_process():
+    # A resumed run is usually a new process (`jaxatt tune --resume`): a digest that held an
+    # object address or a hash-seeded order would refuse every honest resume.
+    import subprocess
+    import sys
+
+    from jaxatt.tune._fingerprint import fingerprint
+
+    code = (
+        "import json, jax; jax.config.update('jax_enable_x64', True)\n"
+        "from tests.tune.test_tune import _small_problem\n"
+        "from jaxatt.tune._fingerprint import fingerprint\n"
+        "loop, x0s, params, objective = _small_problem()\n"
+        "print(json.dumps(fingerprint(loop, params, x0s, objective)))\n"
+    )
+    loop, x0s, params, objective = _small_problem()
+    here = fingerprint(loop, params, x0s, objective)
+    env = dict(os.environ, PYTHONHASHSEED="12345")
+    child = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=pathlib.Path(__file__).parents[2],
+        check=True,
+    )
+    assert json.loads(child.stdout.strip().splitlines()[-1]) == here
 
 
 def test_resume_without_a_checkpoint_is_an_error_before_anything_compiles(tmp_path):

@@ -233,10 +233,16 @@ def run(
     x0s = initial_states(samples)
     base = template()
     if resume:
-        for name in checkpoints.values():  # every weight's, before the first one runs
+        for w, name in checkpoints.items():  # every weight's, before the first one runs
             if (out / name).is_file():
                 tuning.check_checkpoint(
-                    base, parameters(), x0s, out / name, steps=steps, optimizer=_OPTIMIZER
+                    base,
+                    parameters(),
+                    x0s,
+                    out / name,
+                    steps=steps,
+                    optimizer=_OPTIMIZER,
+                    objective=VibrationObjective(w),
                 )
     out.mkdir(parents=True, exist_ok=True)
     start_obj = VibrationObjective(0.0)

@@ -2,11 +2,14 @@
 
 import os
 import pathlib
+from collections.abc import Mapping
 
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int, PyTree
+
+from ._fingerprint import PARTS
 
 
 class NoCheckpointError(FileNotFoundError):
@@ -53,40 +56,72 @@ class TuneState(eqx.Module):
     losses: Float[Array, " steps"]
 
 
+Fingerprint = str | Mapping[str, str]
+
+
+def _parts(fingerprint: Fingerprint) -> dict[str, str]:
+    """A fingerprint's named parts; a plain string is the part named "run" (what checkpoints
+    held before the closed loop and the objective were compared)."""
+    if isinstance(fingerprint, str):
+        return {"run": fingerprint}
+    return dict(fingerprint)
+
+
+def _encode(fingerprint: Fingerprint) -> str:
+    parts = _parts(fingerprint)
+    for name, value in parts.items():
+        if not name.isidentifier() or "\n" in value:
+            raise ValueError(
+                "save_checkpoint: `fingerprint`'s part names must be identifiers and its values "
+                f"one line each, got {name!r}: {value!r}."
+            )
+    return "\n".join(f"{name}={value}" for name, value in parts.items())
+
+
+def _decode(text: str) -> dict[str, str]:
+    if "=" not in text:  # a plain string: written before fingerprints had parts
+        return {"run": text}
+    return dict(line.split("=", 1) for line in text.split("\n"))
+
+
 def save_checkpoint(
-    path: str | os.PathLike, state: TuneState, fingerprint: str | None = None
+    path: str | os.PathLike, state: TuneState, fingerprint: Fingerprint | None = None
 ) -> None:
     """Write `state` with `eqx.tree_serialise_leaves` (to a temporary file, then renamed, so an
     interruption never leaves a half-written checkpoint).
 
     The file starts with the length of the loss history, so that a run can be resumed with a
     different total number of steps ([`load_checkpoint`][]); it ends with `fingerprint` (when
-    given: [`tune`][] writes a digest of its training batch, starting gains and parameters), which
-    `load_checkpoint` compares.
+    given), which `load_checkpoint` compares: a string, or named parts (`{name: digest}`) that
+    are compared one by one. [`tune`][] writes three parts, digests of its training batch,
+    starting gains and parameter names (`"run"`), of the rest of its closed loop
+    (`"closed_loop"`) and of its objective (`"objective"`).
     """
     path = pathlib.Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(path.suffix + ".tmp")
+    text = None if fingerprint is None else _encode(fingerprint)
     with open(tmp, "wb") as f:
         eqx.tree_serialise_leaves(f, jnp.array(state.losses.shape[0]))
         eqx.tree_serialise_leaves(f, state)
-        if fingerprint is not None:
-            np.save(f, np.frombuffer(fingerprint.encode(), np.uint8))
+        if text is not None:
+            np.save(f, np.frombuffer(text.encode(), np.uint8))
     os.replace(tmp, path)
 
 
 def load_checkpoint(
-    path: str | os.PathLike, like: TuneState, fingerprint: str | None = None
+    path: str | os.PathLike, like: TuneState, fingerprint: Fingerprint | None = None
 ) -> TuneState:
     """Read a checkpoint written by [`save_checkpoint`][] into the structure of `like`.
 
     The loss history is padded (with NaN) or cut to `like`'s length, so a run stopped after
     `k` steps can continue to any total `steps >= k`. A checkpoint of another problem (other
     parameters, another optimizer) is a [`CheckpointMismatchError`][] (a `ValueError`) naming
-    the file; so is, when
-    `fingerprint` is given, a checkpoint written with another fingerprint (another training
-    batch, other starting gains, parameter names of the same shapes). A checkpoint written
-    without one is not compared.
+    the file; so is, when `fingerprint` is given, a checkpoint written with another
+    fingerprint: every part that both fingerprints have is compared (for [`tune`][]'s: another
+    training batch, other starting gains or parameter names of the same shapes; another closed
+    loop; another objective), and the error names the parts that differ. A checkpoint written
+    without a fingerprint is not compared.
     """
     with open(path, "rb") as f:
         try:
@@ -100,17 +135,20 @@ def load_checkpoint(
                 path,
             ) from None
         try:
-            saved = np.load(f, allow_pickle=False).tobytes().decode()
+            saved = _decode(np.load(f, allow_pickle=False).tobytes().decode())
         except (EOFError, ValueError, UnicodeDecodeError):
             saved = None  # written without a fingerprint
-    if fingerprint is not None and saved is not None and saved != fingerprint:
-        raise CheckpointMismatchError(
-            f"tune: the checkpoint {str(path)!r} was written for another tuning problem: its "
-            "training batch (`inputs`), starting gains or parameter names differ from this call's. "
-            "Resume with the same ones, or start afresh (resume=False or another checkpoint "
-            "path).",
-            path,
-        )
+    if fingerprint is not None and saved is not None:
+        expected = _parts(fingerprint)
+        differ = [name for name in expected if name in saved and saved[name] != expected[name]]
+        if differ:
+            what = "; ".join(PARTS.get(name, f"its {name!r}") for name in differ)
+            raise CheckpointMismatchError(
+                f"tune: the checkpoint {str(path)!r} was written for another tuning problem; "
+                f"what differs from this call's: {what}. Resume with the same ones, or start "
+                "afresh (resume=False or another checkpoint path).",
+                path,
+            )
     steps = like.losses.shape[0]
     done = int(state.step)
     if done > steps:

@@ -2,7 +2,6 @@
 checkpoints, resume."""
 
 import dataclasses
-import hashlib
 import math
 import os
 import pathlib
@@ -23,6 +22,7 @@ from .._validation import (
     host_checked_program,
 )
 from ._checkpoint import NoCheckpointError, TuneState, load_checkpoint, save_checkpoint
+from ._fingerprint import fingerprint as run_fingerprint
 from ._objective import AbstractObjective
 from ._parameters import apply, check_parameters, constrained, initial_unconstrained
 
@@ -216,23 +216,6 @@ def _check_inputs(where: str, objective, module, inputs) -> None:
         objective.check(module, inputs)
 
 
-def _fingerprint(template: PyTree, parameters: Mapping, inputs: PyTree) -> str:
-    """A digest of what a resumed run must share with the run that wrote its checkpoint: the
-    training batch, the starting gains and the parameters' names and paths (a checkpoint
-    stores only values, so a renamed or swapped parameter of the same shape would load)."""
-    digest = hashlib.sha256()
-    for name in sorted(parameters):
-        digest.update(f"{name}={parameters[name].path};".encode())
-    gains = [parameters[name].where(template) for name in sorted(parameters)]
-    for leaves in (gains, jtu.tree_leaves(inputs)):
-        digest.update(b"|")
-        for leaf in leaves:
-            value = np.ascontiguousarray(np.asarray(leaf))
-            digest.update(f"{value.dtype}{value.shape}".encode())
-            digest.update(value.tobytes())
-    return digest.hexdigest()
-
-
 def _fresh_state(
     template: PyTree, parameters: Mapping, steps: int, optimizer: optax.GradientTransformation
 ) -> TuneState:
@@ -255,11 +238,13 @@ def check_checkpoint(
     *,
     steps: int,
     optimizer: optax.GradientTransformation | None = None,
+    objective: Callable | None = None,
 ) -> int:
     """Check, without compiling or running the closed loop (only the optimizer's initial state
     and the checkpoint's arrays are built), that `checkpoint` can resume
     `tune(template, parameters, objective, inputs, steps=steps, optimizer=optimizer,
-    checkpoint=checkpoint, resume=True)`; return the number of steps it has done.
+    checkpoint=checkpoint, resume=True)`; return the number of steps it has done. The
+    objective is compared when it is given.
 
     For a script that runs several tuning problems in a row and resumes them all: checking
     every checkpoint first finds a wrong one before the earlier runs spend their time (each
@@ -267,8 +252,8 @@ def check_checkpoint(
 
     **Raises** [`NoCheckpointError`][] when `checkpoint` does not exist, and
     [`CheckpointMismatchError`][] when it belongs to another run (other parameters or
-    optimizer, another training batch or starting gains, more steps done than `steps`), the
-    same errors `tune(..., resume=True)` raises.
+    optimizer, another training batch or starting gains, another closed loop or objective,
+    more steps done than `steps`), the same errors `tune(..., resume=True)` raises.
     """
     steps = check_positive_int("check_checkpoint", "steps", steps)
     if not pathlib.Path(checkpoint).is_file():
@@ -280,7 +265,8 @@ def check_checkpoint(
     state = _fresh_state(
         template, parameters, steps, _DEFAULT_OPTIMIZER if optimizer is None else optimizer
     )
-    state = load_checkpoint(checkpoint, state, _fingerprint(template, parameters, inputs))
+    fingerprint = run_fingerprint(template, parameters, inputs, objective, state.opt_state)
+    state = load_checkpoint(checkpoint, state, fingerprint)
     return int(state.step)
 
 
@@ -316,9 +302,13 @@ def tune(
       a quiet fresh start (to resume only where a checkpoint exists, pass
       `resume=pathlib.Path(checkpoint).exists()`). A resumed run ends bit-identical to an
       uninterrupted one (same inputs, same optimizer; XLA:CPU is deterministic). A
-      checkpoint written for another training batch, other starting gains or parameter names
-      is a [`CheckpointMismatchError`][] (a `ValueError`; the rest of the template, the
-      objective and the optimizer's settings are not compared).
+      checkpoint written for another training batch, other starting gains or parameter
+      names, another closed loop (any value or structure of `template` other than the tuned
+      gains) or another objective (its values and structure; a plain function by its name) is
+      a [`CheckpointMismatchError`][] (a `ValueError`) that names what differs. The
+      optimizer is compared by its initial state (structure and values): another optax
+      transformation of the same state (e.g. `optax.adam` with another learning rate) is not
+      seen, unless its hyperparameters are in its state (`optax.inject_hyperparams`).
     - `progress`: tqdm progress bar with the current loss.
     - `callback`: called as `callback(step, loss, aux)` after every step.
     - `on_nonfinite`: `"raise"` (default) raises [`NonFiniteLossError`][] when a step's loss or
@@ -387,7 +377,11 @@ def tune(
     initial_gains = {
         k: np.asarray(v) for k, v in constrained(state.unconstrained, parameters).items()
     }
-    fingerprint = None if checkpoint is None else _fingerprint(template, parameters, inputs)
+    fingerprint = (
+        None
+        if checkpoint is None
+        else run_fingerprint(template, parameters, inputs, objective, state.opt_state)
+    )
     if resume:
         state = load_checkpoint(checkpoint, state, fingerprint)
 
