@@ -338,8 +338,6 @@ def test_resume_compares_the_closed_loop_objective_and_optimizer_and_names_what_
     # another objective (a horizon) or another injected learning rate continued silently and
     # the result mixed two problems. No closed loop is compiled: the checkpoint is the state
     # `tune` starts from, written with `tune`'s fingerprint.
-    from jaxatt.tune._fingerprint import fingerprint
-
     loop, x0s, params, objective = _small_problem()
     optimizer = optax.inject_hyperparams(optax.adam)(learning_rate=0.1)
     unconstrained = tune.initial_unconstrained(loop, params)
@@ -351,7 +349,7 @@ def test_resume_compares_the_closed_loop_objective_and_optimizer_and_names_what_
     )
     path = tmp_path / "run.eqx"
     tune.save_checkpoint(
-        path, state, fingerprint(loop, params, x0s, objective, optimizer.init(unconstrained))
+        path, state, tune.fingerprint(loop, params, x0s, objective, optimizer.init(unconstrained))
     )
     compiled = compile_count("_loss_and_grad"), compile_count("_evaluate")
     check = dict(steps=3, optimizer=optimizer, objective=objective)
@@ -396,7 +394,7 @@ def test_resume_compares_the_closed_loop_objective_and_optimizer_and_names_what_
     # A checkpoint whose fingerprint is one plain string (as written before the parts) is
     # compared as the run's part.
     legacy = tmp_path / "legacy.eqx"
-    run_part = fingerprint(loop, params, x0s)["run"]
+    run_part = tune.fingerprint(loop, params, x0s)["run"]
     tune.save_checkpoint(legacy, state, run_part)
     assert tune.check_checkpoint(loop, params, x0s, legacy, **check) == 1
     with pytest.raises(tune.CheckpointMismatchError, match="its training batch"):
@@ -411,17 +409,15 @@ def test_a_fingerprint_is_the_same_in_every_process():
     import subprocess
     import sys
 
-    from jaxatt.tune._fingerprint import fingerprint
-
     code = (
         "import json, jax; jax.config.update('jax_enable_x64', True)\n"
         "from tests.tune.test_tune import _small_problem\n"
-        "from jaxatt.tune._fingerprint import fingerprint\n"
+        "from jaxatt import tune\n"
         "loop, x0s, params, objective = _small_problem()\n"
-        "print(json.dumps(fingerprint(loop, params, x0s, objective)))\n"
+        "print(json.dumps(tune.fingerprint(loop, params, x0s, objective)))\n"
     )
     loop, x0s, params, objective = _small_problem()
-    here = fingerprint(loop, params, x0s, objective)
+    here = tune.fingerprint(loop, params, x0s, objective)
     env = dict(os.environ, PYTHONHASHSEED="12345")
     child = subprocess.run(
         [sys.executable, "-c", code],

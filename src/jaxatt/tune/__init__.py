@@ -19,6 +19,7 @@ from ._checkpoint import (
     load_checkpoint as load_checkpoint,
     save_checkpoint as save_checkpoint,
 )
+from ._fingerprint import fingerprint as fingerprint
 from ._loop import (
     NonFiniteLossError as NonFiniteLossError,
     TuneResult as TuneResult,

@@ -98,8 +98,23 @@ def fingerprint(
     objective: Callable | None = None,
     optimizer_state: PyTree | None = None,
 ) -> dict[str, str]:
-    """The parts of a run's fingerprint (see `PARTS`); no `objective` or `optimizer` part
-    without one."""
+    """What a tuning run is, as digests (SHA-256, hex) by part: the fingerprint
+    [`tune`][jaxatt.tune.tune] writes into its checkpoint and compares, part by part, when it
+    resumes; for a script that writes its own checkpoints with
+    [`save_checkpoint`][jaxatt.tune.save_checkpoint].
+
+    - `"run"`: the training batch `inputs`, the tuned gains' starting values in `template`
+      and the parameters' names and paths;
+    - `"closed_loop"`: every other value of `template` (its array and number leaves, by path)
+      and its structure, static fields included (object addresses left out);
+    - `"objective"` (when `objective` is given): its values and structure (a plain function
+      by its name: its closure is not seen);
+    - `"optimizer"` (when `optimizer_state` is given): the optimizer's initial state
+      (`optimizer.init(...)`), so a hyperparameter held in it (`optax.inject_hyperparams`) is
+      compared; another learning rate of a plain `optax.adam` has the same state.
+
+    The digests are the same in every process and on every run of the same problem.
+    """
     parts = {
         "run": run_digest(template, parameters, inputs),
         "closed_loop": closed_loop_digest(template, parameters),
