@@ -401,6 +401,14 @@ def test_resume_compares_the_closed_loop_objective_and_optimizer_and_names_what_
         other = QuaternionState(x0s.q, x0s.omega + 0.01)
         tune.check_checkpoint(loop, params, other, legacy, **check)
     assert (compile_count("_loss_and_grad"), compile_count("_evaluate")) == compiled
+    # A plain function as the objective is compared by its name; a string leaf by its value.
+    digests = [tune.fingerprint(loop, params, x0s, f)["objective"] for f in (len, abs, len)]
+    assert digests[0] != digests[1] and digests[0] == digests[2]
+    named = [
+        tune.fingerprint(loop, params, x0s, eqx.Partial(print, sep=sep))["objective"]
+        for sep in (" ", ",")
+    ]
+    assert named[0] != named[1]
 
 
 def test_a_fingerprint_is_the_same_in_every_process():

@@ -38,8 +38,9 @@ _ADDRESS = re.compile(r" at 0x[0-9a-fA-F]+")
 
 
 def _update_with_leaves(digest, tree: PyTree, skip: frozenset = frozenset()) -> None:
-    """Feed `tree`'s structure and every leaf (its path, dtype, shape and bytes; a non-array
-    leaf by its type and name; a leaf whose `id` is in `skip` by its path only) to `digest`.
+    """Feed `tree`'s structure and every leaf (its path, dtype, shape and bytes; a function by
+    its name; another object by its `repr`; a leaf whose `id` is in `skip` by its path only)
+    to `digest`.
     Object addresses are dropped from the structure's text, so that the digest is the same
     in every process."""
     leaves, treedef = jtu.tree_flatten_with_path(tree)
@@ -52,9 +53,10 @@ def _update_with_leaves(digest, tree: PyTree, skip: frozenset = frozenset()) -> 
             value = np.ascontiguousarray(np.asarray(leaf))
             digest.update(f"{value.dtype}{value.shape}".encode())
             digest.update(value.tobytes())
-        else:
-            name = getattr(leaf, "__qualname__", type(leaf).__qualname__)
-            digest.update(f"{type(leaf).__module__}.{name}".encode())
+        elif hasattr(leaf, "__qualname__"):  # a function or a class: by its name
+            digest.update(f"{getattr(leaf, '__module__', '')}.{leaf.__qualname__}".encode())
+        else:  # e.g. a string
+            digest.update(f"{type(leaf).__qualname__}:{_ADDRESS.sub('', repr(leaf))}".encode())
 
 
 def run_digest(template: PyTree, parameters: Mapping, inputs: PyTree) -> str:
