@@ -115,7 +115,10 @@ def fingerprint(
       (`optimizer.init(...)`), so a hyperparameter held in it (`optax.inject_hyperparams`) is
       compared; another learning rate of a plain `optax.adam` has the same state.
 
-    The digests are the same in every process and on every run of the same problem.
+    The digests are the same in every process and on every run of the same problem with the
+    same software on the same kind of machine (tested across processes). Values are compared
+    bit for bit: a template or batch computed on another CPU may differ in its last bits
+    (a transcendental function's rounding), and a resume there is refused, naming the part.
     """
     parts = {
         "run": run_digest(template, parameters, inputs),
