@@ -142,3 +142,35 @@ def test_a_nan_radius_is_not_taken_for_a_stable_one():
     np.testing.assert_allclose(float(h_star(jnp.asarray(RHO1))), 0.338329, atol=1e-6)
     # inf is kept for a network whose radii stay below 1 up to h_max
     assert float(largest_stable_interval(_net(), h_max=0.3)) == np.inf
+
+
+@pytest.mark.parametrize("h", [0.0, -0.5, float("nan"), float("inf"), np.array([0.2, 0.3])])
+@pytest.mark.parametrize(
+    "fn", [decay_rate, disagreement_spectral_radius, mode_spectral_radii, network_transition]
+)
+def test_a_sampling_period_that_is_not_a_positive_scalar_is_refused(fn, h, no_jaxtyping):
+    # h = 0 gave a NaN decay rate, h < 0 a plausible radius of the loop run backwards in time
+    # (decay_rate 3.0 at h = -0.5), NaN and inf NaN radii.
+    with pytest.raises(ValueError, match=rf"{fn.__name__}: `h` must be"):
+        fn(_net(), h)
+
+
+def test_a_traced_sampling_period_is_still_accepted():
+    rate = jax.jit(lambda h: decay_rate(_net(), h))(0.2)
+    np.testing.assert_allclose(float(rate), float(decay_rate(_net(), 0.2)), rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "kwargs, rule",
+    [
+        ({"grid": 0}, "`grid` must be a positive integer"),
+        ({"grid": 2.7}, "`grid` must be a positive integer"),
+        ({"iterations": -1}, "`iterations` must be an integer >= 0"),
+        ({"iterations": 10.0}, "`iterations` must be an integer >= 0"),
+    ],
+)
+def test_a_grid_or_iteration_count_that_is_not_a_count_is_refused(kwargs, rule, no_jaxtyping):
+    # grid=2.7 ran a grid of 2 and iterations=-1 returned the coarse bracket's midpoint, both
+    # silently; grid=0 divided by zero.
+    with pytest.raises(ValueError, match=f"largest_stable_interval: {rule}"):
+        largest_stable_interval(_net(), **kwargs)

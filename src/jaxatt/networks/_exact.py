@@ -30,17 +30,35 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from .._custom_types import RealScalarLike
+from .._validation import (
+    as_float_array,
+    check_positive,
+    check_positive_int,
+    check_positive_scalar,
+    is_traced,
+)
 from ._coupling import TwoLayerNetwork
 from ._expm import expm
 
 
 def _jit_in_h(fn):
     """Compile `fn(network, h)` once per network structure: `h` becomes an array (a Python
-    float would be a static argument of `eqx.filter_jit` and recompile for every value)."""
+    float would be a static argument of `eqx.filter_jit` and recompile for every value).
+
+    A concrete `h` must be a positive finite scalar (a sampling period): `h = 0` gave a NaN
+    decay rate, a negative `h` a plausible radius of the loop run backwards in time, and a
+    (q,) `h` broadcast into one period per mode. A traced `h` is checked for shape only (the
+    functions call each other inside their compiled programs)."""
     compiled = eqx.filter_jit(fn)
 
     @functools.wraps(fn)
     def wrapper(network, h):
+        if is_traced(h):
+            h = as_float_array(h, "h", fn.__name__)
+            if h.shape != ():
+                raise ValueError(f"{fn.__name__}: `h` must be a scalar, got shape {h.shape}.")
+        else:
+            h = check_positive_scalar(fn.__name__, "h", h)
         return compiled(network, jnp.asarray(h, dtype=network.intra_laplacian.dtype))
 
     return wrapper
@@ -177,18 +195,44 @@ def largest_stable_interval(
     Differentiable in every array of `network` (implicit function theorem); jit-compatible.
     The $\lambda_1 = 0$ mode is excluded: its disagreement part is stable for every $h$.
     """
+    where = "largest_stable_interval"
     if not (np.isfinite(h_max) and h_max > 0):
-        raise ValueError(f"largest_stable_interval: `h_max` must be positive, got {h_max!r}.")
-    return _h_star_jit(network, h_max=float(h_max), grid=int(grid), iterations=int(iterations))
+        raise ValueError(f"{where}: `h_max` must be positive, got {h_max!r}.")
+    # A float grid or iteration count was truncated silently, a grid of 0 divided by zero and
+    # a negative count of iterations returned the coarse bracket's midpoint as the answer.
+    grid = check_positive_int(where, "grid", grid)
+    iterations = check_positive_int(where, "iterations", iterations, minimum=0)
+    return _h_star_jit(network, h_max=float(h_max), grid=grid, iterations=iterations)
 
 
-@eqx.filter_jit
 def sampled_response(
     network: TwoLayerNetwork, x0: Float[Array, "q p"], intervals: Float[Array, " intervals"]
 ) -> Float[Array, "samples q p"]:
     r"""The exact discretisation: $x(t_0), x(t_1), \dots$ with $t_{i+1} = t_i + h_i$, computed
     mode by mode, $g_k(t_{i+1}) = F_k(h_i)\,g_k(t_i)$ (no integration error; any real
-    $h_i > 0$, periodic or not)."""
+    $h_i > 0$, periodic or not).
+
+    **Arguments:** `network`; `x0`, the state at $t_0$, shape `(q, p)`; `intervals`, the
+    $h_i > 0$ [s], a vector (concrete ones are checked: a negative or NaN interval ran the
+    loop backwards or returned NaN states).
+    """
+    where = "sampled_response"
+    shape = (network.groups, network.agents_per_group)
+    x0 = as_float_array(x0, "x0", where)
+    if x0.shape != shape:
+        raise ValueError(f"{where}: `x0` must have shape {shape} (q, p), got shape {x0.shape}.")
+    intervals = as_float_array(intervals, "intervals", where)
+    if intervals.ndim != 1:
+        raise ValueError(f"{where}: `intervals` must be a vector, got shape {intervals.shape}.")
+    if not is_traced(intervals):
+        intervals = check_positive(where, "intervals", intervals)
+    return _sampled_response(network, x0, intervals)
+
+
+@eqx.filter_jit
+def _sampled_response(
+    network: TwoLayerNetwork, x0: Float[Array, "q p"], intervals: Float[Array, " intervals"]
+) -> Float[Array, "samples q p"]:
     lam, _ = network.modes()
     a = -network.intra_laplacian
     delta = network.delta
