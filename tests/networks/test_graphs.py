@@ -76,6 +76,20 @@ def test_laplacian_checks_name_the_argument_and_the_rule():
         laplacian_from_adjacency(-np.ones((2, 2)))
 
 
+def test_algebraic_connectivity_refuses_what_is_not_a_symmetric_laplacian(no_jaxtyping):
+    # eigvalsh reads one triangle: a directed path gave 0.656, the eigenvalue of another matrix
+    directed = laplacian_from_edges(3, [(0, 1), (1, 2)], directed=True)
+    with pytest.raises(ValueError, match="algebraic_connectivity: `laplacian` must be symmetric"):
+        algebraic_connectivity(directed)
+    with pytest.raises(ValueError, match="algebraic_connectivity: `laplacian`.*zero row sums"):
+        algebraic_connectivity(np.eye(3))
+    with pytest.raises(ValueError, match="algebraic_connectivity: `laplacian` must have at least"):
+        algebraic_connectivity(np.zeros((1, 1)))
+    # a disconnected graph is a Laplacian: its lambda_2 is 0
+    two_parts = laplacian_from_edges(4, [(0, 1), (2, 3)])
+    assert float(algebraic_connectivity(two_parts)) == pytest.approx(0.0, abs=1e-14)
+
+
 @pytest.mark.parametrize("n", [True, 2.0, 0])
 def test_a_node_count_that_is_not_a_positive_integer_is_refused(n, no_jaxtyping):
     # True and 2.0 were read as networks of 1 and 2 nodes.

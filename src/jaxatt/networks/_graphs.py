@@ -154,5 +154,18 @@ def check_laplacian(
 
 def algebraic_connectivity(laplacian: Float[Array, "n n"]) -> Float[Array, ""]:
     r"""$\lambda_2(L)$, the second smallest eigenvalue of a symmetric Laplacian (the decay
-    rate of disagreement under $\dot x = -Lx$); differentiable where it is simple."""
+    rate of disagreement under $\dot x = -Lx$); differentiable where it is simple.
+
+    **Raises:** `ValueError` for a concrete matrix that is not a symmetric Laplacian of at
+    least two nodes ([`check_laplacian`][] without the connectivity rule: a disconnected
+    graph has $\lambda_2 = 0$). `eigvalsh` reads one triangle only, so a directed Laplacian
+    gave the eigenvalue of another, symmetric, matrix; a single node gave its $\lambda_1$.
+    A traced matrix is checked for shape only.
+    """
+    where = "algebraic_connectivity"
+    laplacian = check_laplacian(where, "laplacian", laplacian, connected=False)
+    if laplacian.shape[0] < 2:
+        raise ValueError(
+            f"{where}: `laplacian` must have at least two nodes, got shape {laplacian.shape}."
+        )
     return jnp.linalg.eigvalsh(laplacian)[1]
