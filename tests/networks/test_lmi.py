@@ -89,6 +89,11 @@ def test_bad_input_and_missing_cvxpy(monkeypatch):
         lmi_tau_max(A, BK, tau_low=0.5, tau_high=0.5)
     with pytest.raises(ValueError, match="`b` must have the shape of `a`"):
         lmi_feasibility(A, np.eye(3), 0.1)
+    # a scalar delta broadcast against L1 into another matrix and a plausible verdict
+    with pytest.raises(ValueError, match="printed_form_ceiling: `delta` must have the shape"):
+        printed_form_ceiling(-A, 1.0, 1.0)
+    with pytest.raises(ValueError, match="printed_form_ceiling: `intra_laplacian`, `delta` and"):
+        printed_form_ceiling(-A, BK, float("nan"))
     real_import = builtins.__import__
 
     def no_cvxpy(name, *args, **kwargs):

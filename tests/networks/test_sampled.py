@@ -55,7 +55,7 @@ def test_simulation_matches_the_exact_discretisation_and_keeps_the_average(kind)
     assert spread[-1] < 1e-1 * spread[0]
 
 
-def test_schedule_checks():
+def test_schedule_checks(no_jaxtyping):
     with pytest.raises(ValueError, match="`period` must be positive"):
         SampleSchedule.periodic(0.0, DT)
     with pytest.raises(ValueError, match="`tau` must be positive"):
@@ -66,6 +66,12 @@ def test_schedule_checks():
         SampleSchedule([0.1, -0.1], 0.1)
     with pytest.raises(ValueError, match="`step` must be positive"):
         SampleSchedule([0.1], 0.0)
+    # a negative step was reported as "`tau` must be at least `step`"
+    with pytest.raises(ValueError, match="SampleSchedule.random: `step` must be positive"):
+        SampleSchedule.random(jr.key(0), 0.1, -0.01)
+    # a float count was truncated silently
+    with pytest.raises(ValueError, match="SampleSchedule.random: `count` must be a positive"):
+        SampleSchedule.random(jr.key(0), 0.1, DT, count=2.5)
     schedule = SampleSchedule.random(jr.key(1), 0.26, DT, count=2000)
     h = np.asarray(schedule.intervals)
     assert h.min() >= DT - 1e-15 and h.max() <= 0.26 + 1e-15
@@ -81,3 +87,14 @@ def test_schedule_checks():
             1.0,
             dt=DT,
         )
+
+
+def test_sampled_response_checks_its_state_and_intervals(no_jaxtyping):
+    # a negative interval ran the loop backwards and a NaN one returned NaN states, silently
+    for bad in ([-0.1, 0.1], [float("nan")], [0.0]):
+        with pytest.raises(ValueError, match="sampled_response: `intervals` must be positive"):
+            sampled_response(NET, X0, jnp.asarray(bad))
+    with pytest.raises(ValueError, match=r"sampled_response: `x0` must have shape \(3, 4\)"):
+        sampled_response(NET, X0.reshape(-1), jnp.asarray([0.1]))
+    with pytest.raises(ValueError, match="sampled_response: `intervals` must be a vector"):
+        sampled_response(NET, X0, 0.1)

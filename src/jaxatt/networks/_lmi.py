@@ -280,8 +280,23 @@ def printed_form_ceiling(intra_laplacian: MatrixLike, delta: MatrixLike, lam: fl
     largest real part `max_real_part`, and `infeasible_for_every_tau` (True when it is not
     Hurwitz: no $\tau > 0$ can make the printed LMIs feasible).
     """
+    where = "printed_form_ceiling"
     l1 = np.asarray(intra_laplacian, dtype=float)
-    m = l1 - float(lam) * np.asarray(delta, dtype=float)
+    if l1.ndim != 2 or l1.shape[0] != l1.shape[1]:
+        raise ValueError(
+            f"{where}: `intra_laplacian` must be a square matrix, got shape {l1.shape}."
+        )
+    delta = np.asarray(delta, dtype=float)
+    if delta.shape != l1.shape:
+        # A scalar or a row broadcast against L1 into another matrix, and a plausible answer.
+        raise ValueError(
+            f"{where}: `delta` must have the shape of `intra_laplacian`, {l1.shape}, got "
+            f"shape {delta.shape}."
+        )
+    lam = float(lam)
+    if not (np.all(np.isfinite(l1)) and np.all(np.isfinite(delta)) and math.isfinite(lam)):
+        raise ValueError(f"{where}: `intra_laplacian`, `delta` and `lam` must be finite.")
+    m = l1 - lam * delta
     max_real = float(np.max(np.linalg.eigvals(m).real))
     return {
         "trace": float(np.trace(m)),

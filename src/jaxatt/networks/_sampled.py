@@ -22,7 +22,7 @@ import numpy as np
 from jaxtyping import Array, Float, PyTree
 
 from .._custom_types import RealScalarLike
-from .._validation import describe
+from .._validation import check_positive_int, describe
 from ._types import MatrixLike, as_float
 
 
@@ -81,15 +81,17 @@ class SampleSchedule(eqx.Module):
     def random(cls, key: Array, tau: float, step: float, count: int = 4096) -> "SampleSchedule":
         r"""`count` intervals $h_i = m_i\,$`step`, $m_i$ uniform on $\{1, \dots,
         \lfloor\tau/\text{step}\rfloor\}$: the grid version of $h_i \sim U(0, \tau]$."""
+        where = "SampleSchedule.random"
         tau, step = float(tau), float(step)
         if not (math.isfinite(tau) and tau > 0):
-            raise ValueError(f"SampleSchedule.random: `tau` must be positive, got tau={tau!r}.")
+            raise ValueError(f"{where}: `tau` must be positive, got tau={tau!r}.")
+        if not (math.isfinite(step) and step > 0):
+            raise ValueError(f"{where}: `step` must be positive, got step={step!r}.")
+        count = check_positive_int(where, "count", count)  # 2.5 was truncated to 2
         slots = int(math.floor(tau / step * (1 + 1e-12)))
         if slots < 1:
-            raise ValueError(
-                f"SampleSchedule.random: `tau` must be at least `step`, got tau={tau}, step={step}."
-            )
-        m = jr.randint(key, (int(count),), 1, slots + 1)
+            raise ValueError(f"{where}: `tau` must be at least `step`, got tau={tau}, step={step}.")
+        m = jr.randint(key, (count,), 1, slots + 1)
         return cls(m.astype(jnp.result_type(float)) * step, step)
 
     @property
