@@ -200,6 +200,14 @@ def test_moving_average_removes_a_chatter_and_keeps_a_bias():
     assert metrics.moving_average is moving_average
 
 
+def test_moving_average_refuses_a_window_that_is_not_a_scalar(no_jaxtyping):
+    # A (T,) window broadcast against the times into one window per sample: for T = 3 it
+    # returned [1, 0.75, 0.3], a plausible average.
+    ts = jnp.linspace(0.0, 1.0, 3)
+    with pytest.raises(ValueError, match=r"moving_average: `window` must be a scalar, got shape"):
+        moving_average(ts, jnp.array([1.0, 0.5, 0.1]), jnp.array([0.1, 0.2, 0.3]))
+
+
 # --- Streaming: every metric object reduced on the fly equals its trajectory reduction -------
 
 

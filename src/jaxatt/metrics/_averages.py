@@ -5,7 +5,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float, Real
 
 from .._custom_types import RealScalarLike
-from .._validation import check_positive
+from .._validation import check_positive_scalar
 from ._signals import as_signal, as_times
 
 
@@ -39,7 +39,7 @@ def moving_average(
     **Arguments:**
     - `ts`: sample times [s], shape `(T,)`, non-decreasing.
     - `x`: the signal, shape `(T, ...)`.
-    - `window`: $w > 0$ [s].
+    - `window`: $w > 0$ [s], a scalar.
 
     **Returns:** the average, with the shape of `x`.
     """
@@ -49,5 +49,7 @@ def moving_average(
         return moving_average(ts, x[:, None], window)[:, 0]
     as_signal(where, "x", x.reshape(x.shape[0], -1), 2)
     ts = as_times(where, ts, "x", x)
-    window = check_positive(where, "window", window)
+    # One window for every component: a (T,) window broadcast against `ts` into one window
+    # per sample, a plausible average.
+    window = check_positive_scalar(where, "window", window)
     return _moving_average(ts, x, window)
