@@ -5,6 +5,7 @@ Oracles independent of the closed forms under test: Gauss-Legendre quadrature of
 second-order mode driven by the shaped step (RK4 in `lax.scan`).
 """
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -208,6 +209,21 @@ def test_shaped_attitude_refuses_a_bad_start_time(t_start, needle):
     q0, q1 = jnp.array([1.0, 0.0, 0.0, 0.0]), jnp.array([0.0, 1.0, 0.0, 0.0])
     with pytest.raises(ValueError, match=f"ShapedAttitude: {needle}"):
         ShapedAttitude(ZeroVibrationSmoother(1.0, 0.01), q0, q1, t_start)
+
+
+@pytest.mark.parametrize("shaper", [ZeroVibration(1.0), ZeroVibrationSmoother(1.0, 0.01)])
+def test_shaped_attitude_refuses_a_target_opposite_to_the_start(shaper):
+    # q_target = -q_start (the same attitude): the interpolation passed through 0 at S = 1/2
+    # and the command was NaN there (for half a period behind a ZV shaper).
+    q0 = jnp.array([0.8832, 0.3, -0.2, -0.3])
+    q0 = q0 / jnp.linalg.norm(q0)
+    with pytest.raises(ValueError, match=r"ShapedAttitude: `q_target` must not be -q_start"):
+        ShapedAttitude(shaper, q0, -q0)
+    # a traced pair is checked when the program runs
+    build = eqx.filter_jit(lambda q: ShapedAttitude(shaper, q0, q)(0.0, None)[0].q_d)
+    with pytest.raises(Exception, match="must not be -q_start"):
+        build(-q0)
+    np.testing.assert_allclose(build(q0), q0, atol=1e-15)  # a step to itself is fine
 
 
 def test_shaped_attitude_command():

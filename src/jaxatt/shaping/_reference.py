@@ -10,13 +10,50 @@ from typing import ClassVar
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import ArrayLike, Float
 
 from .._custom_types import Quaternion, RealScalarLike
-from .._validation import check_finite, check_scalar, check_unit_quaternion
+from .._validation import (
+    check,
+    check_finite,
+    check_scalar,
+    check_unit_quaternion,
+    describe,
+    is_traced,
+)
 from ..references import AbstractReference, AttitudeReference
 from ..rotations import quat_conjugate, quat_multiply
 from ._base import AbstractShaper
+
+
+ANTIPODAL_TOLERANCE = 1e-6
+r"""Smallest accepted $\|q_0 + \bar q_c\|$: the shaped command passes through
+$(q_0 + \bar q_c)/2$, which must not be (close to) 0 for the normalisation."""
+
+
+def _check_not_antipodal(q_start, q_target):
+    r"""`q_target`, checked to differ from $-q_0$: the interpolation $q_0 + (\bar q_c - q_0)S$
+    passes through 0 at $S = 1/2$, where the normalised command was NaN (a ZV staircase sits
+    there for half a period). A traced pair gets the check attached to `q_target` (run time)."""
+    rule = (
+        f"must not be -q_start (| q_start + q_target | > {ANTIPODAL_TOLERANCE:g}): it is the "
+        "same attitude, and the interpolated command passes through 0; to stay put, pass "
+        "q_target = q_start"
+    )
+    pair = jnp.stack([q_start, q_target])
+    if is_traced(pair):
+        return check("ShapedAttitude", "q_target", pair, _apart, rule)[1]
+    if not bool(_apart(np, np.asarray(pair))):
+        raise ValueError(
+            f"ShapedAttitude: `q_target` {rule}, got q_start={describe(q_start)} and "
+            f"q_target={describe(q_target)}."
+        )
+    return q_target
+
+
+def _apart(xp, pair):
+    return xp.sqrt(xp.sum((pair[0] + pair[1]) ** 2)) > ANTIPODAL_TOLERANCE
 
 
 class ShapedAttitude(AbstractReference):
@@ -25,7 +62,8 @@ class ShapedAttitude(AbstractReference):
     **Arguments:**
     - `shaper`: an [`AbstractShaper`][] (e.g. [`ZeroVibrationSmoother`][]).
     - `q_start`: $q_0$, the attitude the manoeuvre starts from (unit quaternion).
-    - `q_target`: $\bar q_c$, the commanded attitude (unit quaternion).
+    - `q_target`: $\bar q_c$, the commanded attitude (unit quaternion, not $-q_0$: the
+      command would pass through 0).
     - `t_start`: $t_s$ [s], when the step is applied (a finite scalar, default 0).
 
     The output's $\omega_d = 2[q_c^*\otimes\dot q_c]_v$ and $\dot\omega_d$ are exact time
@@ -53,6 +91,7 @@ class ShapedAttitude(AbstractReference):
         self.shaper = shaper
         self.q_start = check_unit_quaternion("ShapedAttitude", "q_start", q_start)
         self.q_target = check_unit_quaternion("ShapedAttitude", "q_target", q_target)
+        self.q_target = _check_not_antipodal(self.q_start, self.q_target)
         # A NaN start made every command NaN, and an infinite one a step that never (or always)
         # happened; a (3,) start failed in `command` with a broadcasting error.
         t_start = check_finite(
