@@ -161,3 +161,32 @@ def test_bad_geometry_and_unsafe_points_raise(h):
     with pytest.raises(ValueError, match="start.*outside the safe set"):
         h.check_safe("test", "start", [30.0, 10.0, 0.0])
     h.check_safe("test", "start", [48.5, -1.4, 0.2])
+
+
+@pytest.mark.parametrize("shape", [(2,), (4,), (3, 3)])
+def test_a_position_that_is_not_one_3_vector_is_refused(h, shape, no_jaxtyping):
+    # JAX clamps out-of-range indices: a (2,) position read y as z, a (4,) one dropped an entry
+    # and a (3, 3) batch returned three plausible values, silently.
+    with pytest.raises(ValueError, match=r"CollisionAvoidance: `position` must have shape \(3,\)"):
+        h(np.ones(shape))
+    with pytest.raises(ValueError, match=r"CollisionAvoidance: `position` must have shape \(3,\)"):
+        h.gradient(np.ones(shape))
+
+
+def test_a_blend_past_the_cissoid_asymptote_or_without_its_sets_is_refused(no_jaxtyping):
+    # CubicBlend joined a cissoid beyond its asymptote 2a (where F changes sign) silently.
+    with pytest.raises(ValueError, match=r"CubicBlend: the cissoid's asymptote 2a=40.0 <= a2=45.0"):
+        CubicBlend(KeepOutSphere(50.0), CissoidCorridor(0.1, 20.0), 30.0, 45.0)
+    with pytest.raises(ValueError, match="CubicBlend: `sphere` must be a KeepOutSphere"):
+        CubicBlend(50.0, ConeCorridor(0.1), 30.0, 45.0)
+    with pytest.raises(ValueError, match="CubicBlend: `corridor` must be a cone or cissoid"):
+        CubicBlend(KeepOutSphere(50.0), 0.1, 30.0, 45.0)
+
+
+@pytest.mark.parametrize("value", [True, np.array([1.0, 2.0]), "50"])
+def test_a_size_that_is_not_a_real_number_is_refused(value, no_jaxtyping):
+    # True was read as a 1 m sphere; an array failed in float() with a TypeError.
+    with pytest.raises(ValueError, match="KeepOutSphere: `radius` must be a real number"):
+        KeepOutSphere(value)
+    with pytest.raises(ValueError, match="ConeCorridor: `half_angle` must be a real number"):
+        ConeCorridor(value)

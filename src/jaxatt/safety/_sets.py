@@ -31,18 +31,26 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
+from .._validation import check_instance, is_real_scalar
 from ..numerics import clip, maximum, minimum
 
 
+def _real(where: str, name: str, value) -> float:
+    """A real number as a float: `True` read as 1 m and a (3,) array failed in `float()`."""
+    if not is_real_scalar(value):
+        raise ValueError(f"{where}: `{name}` must be a real number, got {value!r}.")
+    return float(value)
+
+
 def _positive(where: str, name: str, value) -> float:
-    value = float(value)
+    value = _real(where, name, value)
     if not (math.isfinite(value) and value > 0):
         raise ValueError(f"{where}: `{name}` must be positive and finite, got {name}={value}.")
     return value
 
 
 def _half_angle(where: str, value) -> float:
-    value = float(value)
+    value = _real(where, "half_angle", value)
     if not (math.isfinite(value) and 0.0 < value < math.pi / 2):
         raise ValueError(
             f"{where}: `half_angle` must lie in (0, pi/2) rad, got half_angle={value}."
@@ -116,6 +124,13 @@ class CissoidCorridor(eqx.Module):
 Corridor = ConeCorridor | CissoidCorridor
 
 
+def _check_below_asymptote(where: str, corridor: Corridor, a2: float) -> None:
+    """The blend ends at $a_2$, where a cissoid corridor must still be defined ($a_2 < 2a$):
+    beyond its asymptote $F$ changes sign and the blend joined a corridor that is not there."""
+    if isinstance(corridor, CissoidCorridor) and not a2 < 2 * corridor.a:
+        raise ValueError(f"{where}: the cissoid's asymptote 2a={2 * corridor.a} <= a2={a2}.")
+
+
 class CubicBlend(eqx.Module):
     r"""The C$^1$ cubic $p$ on $[a_1, a_2]$ joining the sphere to the corridor.
 
@@ -130,7 +145,8 @@ class CubicBlend(eqx.Module):
     the exact rational solution of the end conditions to 4.4e-14 (SPEC's 7-digit $c_2$ and
     $c_4$, ...677e7 and ...603e10, are one unit off in the last digit).
 
-    **Arguments:** `sphere`, `corridor`, `a1`, `a2` [m] with $0 < a_1 < a_2$.
+    **Arguments:** `sphere`, `corridor`, `a1`, `a2` [m] with $0 < a_1 < a_2$ (and
+    $a_2 < 2a$ for a cissoid corridor).
     """
 
     a1: float = eqx.field(static=True)
@@ -138,10 +154,16 @@ class CubicBlend(eqx.Module):
     local: tuple[float, float, float, float] = eqx.field(static=True)
 
     def __init__(self, sphere: KeepOutSphere, corridor: Corridor, a1, a2):
-        a1 = _positive("CubicBlend", "a1", a1)
-        a2 = _positive("CubicBlend", "a2", a2)
+        where = "CubicBlend"
+        check_instance(where, "sphere", sphere, KeepOutSphere, "a KeepOutSphere")
+        check_instance(
+            where, "corridor", corridor, (ConeCorridor, CissoidCorridor), "a cone or cissoid"
+        )
+        a1 = _positive(where, "a1", a1)
+        a2 = _positive(where, "a2", a2)
         if not a2 > a1:
             raise ValueError(f"CubicBlend: need a2 > a1 > 0, got a1={a1}, a2={a2}.")
+        _check_below_asymptote(where, corridor, a2)
         length = a2 - a1
         y0, m0 = a1 * a1 - sphere.radius**2, 2.0 * a1 * length
         y1, m1 = -float(corridor.profile(a2)), -float(corridor.slope(a2)) * length
@@ -187,14 +209,13 @@ class CollisionAvoidance(eqx.Module):
             raise ValueError(f"{where}: `sphere` must be a KeepOutSphere, got {sphere!r}.")
         if not isinstance(corridor, (ConeCorridor, CissoidCorridor)):
             raise ValueError(f"{where}: `corridor` must be a cone or cissoid, got {corridor!r}.")
-        a1, a2 = float(a1), float(a2)
+        a1, a2 = _real(where, "a1", a1), _real(where, "a2", a2)
         if not (sphere.radius > a2 > a1 > 0):
             raise ValueError(
                 f"{where}: the geometry needs a3 > a2 > a1 > 0, got a1={a1}, a2={a2}, "
                 f"a3={sphere.radius}."
             )
-        if isinstance(corridor, CissoidCorridor) and not a2 < 2 * corridor.a:
-            raise ValueError(f"{where}: the cissoid's asymptote 2a={2 * corridor.a} <= a2={a2}.")
+        _check_below_asymptote(where, corridor, a2)
         self.sphere, self.corridor = sphere, corridor
         self.blend = CubicBlend(sphere, corridor, a1, a2)
         self.beta = sphere.radius**2 if beta is None else _positive(where, "beta", beta)
@@ -211,6 +232,13 @@ class CollisionAvoidance(eqx.Module):
         r"""The outer and corridor factors $(O, C)$ [m$^2$] at one position; beyond $x = a_2$
         both are continued by $\bar C$, so $h = O\,C + \beta\max(0, x - a_2)^2$ everywhere."""
         p = jnp.asarray(position)
+        if p.shape != (3,):
+            # Indexing clamps in JAX: a (2,) position read its y as z, a (4,) one dropped an
+            # entry and a (3, 3) batch gave three rows of plausible values.
+            raise ValueError(
+                "CollisionAvoidance: `position` must have shape (3,) (one position; vmap for "
+                f"batches), got shape {p.shape}."
+            )
         x, r2 = p[0], p[1] ** 2 + p[2] ** 2
         a1, a2 = self.a1, self.a2
         outer = jnp.where(x <= a1, self.sphere.factor(x, r2), r2 + self.blend(clip(x, a1, a2)))
