@@ -19,6 +19,7 @@ from jaxatt.references import EulerAngleTrajectory
 from jaxatt.simulation import ClosedLoop, simulate
 from jaxatt.sliding import (
     ExponentialDecay,
+    FractionalSurface,
     GlobalSurface,
     PolynomialDecay,
     TerminalSurface,
@@ -203,6 +204,27 @@ def test_gradients_with_respect_to_gains_are_finite(example_run):
         (lambda: TerminalSurface(1.0, 0.0, 0.6), "TerminalSurface: `k2` must be positive"),
         (lambda: ExponentialDecay(0.0), "ExponentialDecay: `time_constant` must be positive"),
         (lambda: PolynomialDecay(-1.0), "PolynomialDecay: `horizon` must be positive"),
+        # (3, 1) parameters broadcast against the (3,) error into a (3, 3) sliding variable
+        (
+            lambda: TerminalSurface(1.0, 0.5, jnp.full((3, 1), 0.6)),
+            "TerminalSurface: `exponent` must be a scalar or shape (3,), got shape (3, 1)",
+        ),
+        (
+            lambda: TerminalSurface(1.0, 0.5, 0.6, jnp.full((3, 1), 1e-3)),
+            "TerminalSurface: `floor` must be a scalar or shape (3,), got shape (3, 1)",
+        ),
+        (
+            lambda: ExponentialDecay(jnp.ones((3, 1))),
+            "ExponentialDecay: `time_constant` must be a scalar, got shape (3, 1)",
+        ),
+        (
+            lambda: PolynomialDecay(jnp.ones(3)),
+            "PolynomialDecay: `horizon` must be a scalar, got shape (3,)",
+        ),
+        (  # a (3,) order failed in the first evaluation with a broadcasting error
+            lambda: FractionalSurface(1.0, jnp.full(3, 0.5), 0.1, 10),
+            "FractionalSurface: `order` must be a scalar, got shape (3,)",
+        ),
         (lambda: DecoupledPD(-1.0, 1.0), "DecoupledPD: `kp` must be positive"),
         (
             lambda: FeedbackLinearization(-jnp.eye(3), DecoupledPD(1.0, 1.0)),

@@ -19,7 +19,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike, Scalar
-from .._validation import check_positive
+from .._validation import check_positive_scalar
 from ..numerics import clip
 from ._vector import PDSurface, TerminalSurface
 
@@ -38,7 +38,10 @@ class ExponentialDecay(AbstractDecay):
     time_constant: Float[Array, ""]
 
     def __init__(self, time_constant: RealScalarLike):
-        self.time_constant = check_positive("ExponentialDecay", "time_constant", time_constant)
+        # One time constant (a scalar field): a (3, 1) one made the (3,) surface (3, 3).
+        self.time_constant = check_positive_scalar(
+            "ExponentialDecay", "time_constant", time_constant
+        )
 
     def __call__(self, tau: Float[ArrayLike, ""]) -> tuple[Scalar, Scalar]:
         f = jnp.exp(-jnp.asarray(tau) / self.time_constant)
@@ -55,7 +58,7 @@ class PolynomialDecay(AbstractDecay):
     horizon: Float[Array, ""]
 
     def __init__(self, horizon: RealScalarLike):
-        self.horizon = check_positive("PolynomialDecay", "horizon", horizon)
+        self.horizon = check_positive_scalar("PolynomialDecay", "horizon", horizon)
 
     def __call__(self, tau: Float[ArrayLike, ""]) -> tuple[Scalar, Scalar]:
         remaining = clip(1 - jnp.asarray(tau) / self.horizon, 0.0, 1.0)

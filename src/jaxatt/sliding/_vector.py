@@ -17,6 +17,7 @@ from .._validation import (
     check_in_open_interval,
     check_positive,
     check_positive_int,
+    check_scalar,
 )
 from ..numerics import (
     FractionalMemory,
@@ -63,21 +64,25 @@ class TerminalSurface(eqx.Module):
     singularity, SPEC 001(d) [E]); it is guarded by evaluating $|e_i|^{r-1}$ at
     $\max(|e_i|, \epsilon_e)$, `floor` $= \epsilon_e$.
 
-    **Arguments:** `k1`, `k2` > 0 (scalars or (3,)), `exponent` $r \in (0, 1)$,
-    `floor` $\epsilon_e > 0$ [unit of e] (default 1e-3).
+    **Arguments:** `k1`, `k2` > 0, `exponent` $r \in (0, 1)$, `floor` $\epsilon_e > 0$
+    [unit of e] (default 1e-3); each a scalar or per axis, (3,).
     """
 
     k1: Float[Array, "*k"]
     k2: Float[Array, "*k"]
-    exponent: Float[Array, ""]
-    floor: Float[Array, ""]
+    exponent: Float[Array, "*k"]
+    floor: Float[Array, "*k"]
 
     def __init__(self, k1: ArrayLike, k2: ArrayLike, exponent: ArrayLike, floor: ArrayLike = 1e-3):
         where = "TerminalSurface"
         self.k1 = check_gain_shape(where, "k1", check_positive(where, "k1", k1))
         self.k2 = check_gain_shape(where, "k2", check_positive(where, "k2", k2))
-        self.exponent = check_in_open_interval(where, "exponent", exponent, 0.0, 1.0)
-        self.floor = check_positive(where, "floor", floor)
+        # Scalars or per axis: a (3, 1) exponent or floor broadcast against the (3,) error
+        # into a (3, 3) sliding variable.
+        self.exponent = check_gain_shape(
+            where, "exponent", check_in_open_interval(where, "exponent", exponent, 0.0, 1.0)
+        )
+        self.floor = check_gain_shape(where, "floor", check_positive(where, "floor", floor))
 
     def __call__(self, e: Float[Array, "3"], e_dot: Float[Array, "3"]) -> Float[Array, "3"]:
         return e_dot + self.k1 * e + self.k2 * sig_pow(e, self.exponent)
@@ -108,7 +113,7 @@ class FractionalSurface(eqx.Module):
     $t_0$). The sample memory is a [`jaxatt.numerics.FractionalMemory`][] of `capacity`
     samples (full memory when it covers the horizon).
 
-    **Arguments:** `slope` $c > 0$, `order` $\alpha \in (0, 1)$, `step` $h > 0$ [s],
+    **Arguments:** `slope` $c > 0$, `order` $\alpha \in (0, 1)$ (a scalar), `step` $h > 0$ [s],
     `capacity` (samples kept, static), `caputo`.
     """
 
@@ -121,7 +126,11 @@ class FractionalSurface(eqx.Module):
     def __init__(self, slope, order, step: float, capacity: int, caputo: bool = True):
         where = "FractionalSurface"
         self.slope = check_gain_shape(where, "slope", check_positive(where, "slope", slope))
-        self.order = check_in_open_interval(where, "order", order, 0.0, 1.0)
+        # One order: the Grunwald-Letnikov weights are one sequence (a (3,) order failed in
+        # the first evaluation with a broadcasting error).
+        self.order = check_in_open_interval(
+            where, "order", check_scalar(where, "order", order), 0.0, 1.0
+        )
         step = float(step)  # static: the sample grid
         if not (math.isfinite(step) and step > 0):
             raise ValueError(f"{where}: `step` must be positive [s], got step={step}.")
