@@ -69,9 +69,10 @@ def test_nonlinear_model_matches_two_keplerian_orbits(nonlinear):
     target = OrbitalElements(*(jnp.asarray(v, dtype=float) for v in TARGET))
     rho, rho_dot = keplerian_relative_states(target, RHO0, RHO_DOT0, nonlinear.ts)
     states = nonlinear.plant_states
-    # The separation grows to ~3 km over the orbit; the models agree to 1e-6 m (acceptance).
-    assert np.max(np.linalg.norm(rho, axis=1)) > 2e3
-    np.testing.assert_allclose(states.rho, rho, rtol=0, atol=1e-6)
+    # The separation grows to 2.2 km over the orbit; the models agree to 8.6e-9 m (measured;
+    # the acceptance was 1e-6 m), as notebook 07 states and asserts.
+    assert abs(np.max(np.linalg.norm(rho, axis=1)) - 2.2e3) < 50
+    np.testing.assert_allclose(states.rho, rho, rtol=0, atol=2e-8)
     np.testing.assert_allclose(states.rho_dot, rho_dot, rtol=0, atol=1e-9)
     # The integrated true anomaly follows Kepler's equation.
     nu = jax.vmap(lambda t: kepler_propagate(TARGET, t).nu)(nonlinear.ts)
