@@ -98,3 +98,11 @@ def test_sampled_response_checks_its_state_and_intervals(no_jaxtyping):
         sampled_response(NET, X0.reshape(-1), jnp.asarray([0.1]))
     with pytest.raises(ValueError, match="sampled_response: `intervals` must be a vector"):
         sampled_response(NET, X0, 0.1)
+
+
+def test_a_link_needs_a_schedule(no_jaxtyping):
+    # Audit (inputs): another object was accepted and failed inside the closed loop with an
+    # AttributeError that named no argument.
+    with pytest.raises(ValueError, match="SampledLink: `schedule` must be a SampleSchedule"):
+        SampledLink(np.full(4, 0.26))
+    SampledLink(SampleSchedule.periodic(0.26, 0.01))

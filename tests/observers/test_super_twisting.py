@@ -189,3 +189,12 @@ def test_reading_b_meets_the_spec_target():
     error = _estimation_error(traj)
     assert error[0] > 2.5e-3
     assert np.max(error[np.asarray(traj.ts) >= 3.0]) < 1e-4
+
+
+def test_gain_condition_names_a_bound_of_the_wrong_shape(no_jaxtyping):
+    # Audit (inputs): a (2,) bound failed in broadcast_to with a message naming no argument.
+    J = jnp.diag(jnp.array([0.01175, 0.01175, 0.02229]))
+    observer = SuperTwistingObserver(J, 4.0, 2.0)
+    with pytest.raises(ValueError, match=r"gain_condition: `derivative_bound` must be a scalar"):
+        observer.gain_condition(jnp.array([0.002, 0.004]))
+    assert observer.gain_condition(jnp.array([0.002, 0.004, 0.009])).rho1_bound.shape == (3,)

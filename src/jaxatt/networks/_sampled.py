@@ -22,7 +22,7 @@ import numpy as np
 from jaxtyping import Array, Float, PyTree
 
 from .._custom_types import RealScalarLike
-from .._validation import check_positive_int, describe
+from .._validation import check_instance, check_positive_int, describe
 from ._types import MatrixLike, as_float
 
 
@@ -137,6 +137,10 @@ class SampledLink(eqx.Module):
     """
 
     schedule: SampleSchedule
+
+    def __check_init__(self):
+        # Another object failed later, inside the closed loop, with an AttributeError.
+        check_instance("SampledLink", "schedule", self.schedule, SampleSchedule, "a SampleSchedule")
 
     def init(self, t0: RealScalarLike, value: PyTree[Array]) -> LinkState:
         dtype = jnp.result_type(*jtu.tree_leaves(value))

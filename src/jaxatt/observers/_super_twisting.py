@@ -248,7 +248,8 @@ class SuperTwistingObserver(AbstractObserver):
         """
         where = "SuperTwistingObserver.gain_condition"
         bound = check_nonnegative(where, "derivative_bound", derivative_bound)
-        bound = jnp.broadcast_to(bound, (3,))
+        # A (2,) bound failed in broadcast_to with a message that named no argument.
+        bound = jnp.broadcast_to(check_gain_shape(where, "derivative_bound", bound), (3,))
         rho2 = jnp.broadcast_to(self.rho2, (3,))
         if self.acceleration:
             inverse = jnp.linalg.inv(self.inertia)
