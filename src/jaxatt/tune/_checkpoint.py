@@ -93,9 +93,10 @@ def save_checkpoint(
     The file starts with the length of the loss history, so that a run can be resumed with a
     different total number of steps ([`load_checkpoint`][]); it ends with `fingerprint` (when
     given), which `load_checkpoint` compares: a string, or named parts (`{name: digest}`) that
-    are compared one by one. [`tune`][] writes three parts, digests of its training batch,
-    starting gains and parameter names (`"run"`), of the rest of its closed loop
-    (`"closed_loop"`) and of its objective (`"objective"`).
+    are compared one by one. [`tune`][] writes the parts of [`fingerprint`][]: digests of its
+    training batch, starting gains and parameter names (`"run"`), of the rest of its closed
+    loop (`"closed_loop"`), of its objective (`"objective"`) and of its optimizer's initial
+    state (`"optimizer"`).
     """
     path = pathlib.Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -120,8 +121,8 @@ def load_checkpoint(
     the file; so is, when `fingerprint` is given, a checkpoint written with another
     fingerprint: every part that both fingerprints have is compared (for [`tune`][]'s: another
     training batch, other starting gains or parameter names of the same shapes; another closed
-    loop; another objective), and the error names the parts that differ. A checkpoint written
-    without a fingerprint is not compared.
+    loop, objective or optimizer state), and the error names the parts that differ. A
+    checkpoint written without a fingerprint is not compared.
     """
     with open(path, "rb") as f:
         try:

@@ -37,12 +37,18 @@ PARTS = {
 _ADDRESS = re.compile(r" at 0x[0-9a-fA-F]+")
 
 
+def _update_with_array(digest, leaf) -> None:
+    """Feed an array-like leaf's dtype, shape and bytes to `digest`."""
+    value = np.ascontiguousarray(np.asarray(leaf))
+    digest.update(f"{value.dtype}{value.shape}".encode())
+    digest.update(value.tobytes())
+
+
 def _update_with_leaves(digest, tree: PyTree, skip: frozenset = frozenset()) -> None:
-    """Feed `tree`'s structure and every leaf (its path, dtype, shape and bytes; a function by
-    its name; another object by its `repr`; a leaf whose `id` is in `skip` by its path only)
-    to `digest`.
-    Object addresses are dropped from the structure's text, so that the digest is the same
-    in every process."""
+    """Feed `tree`'s structure and every leaf to `digest`: an array by its path, dtype, shape
+    and bytes; a function by its name; another object by its `repr`; a leaf whose `id` is in
+    `skip` by its path only. Object addresses are dropped from the text, so that the digest is
+    the same in every process."""
     leaves, treedef = jtu.tree_flatten_with_path(tree)
     digest.update(_ADDRESS.sub("", str(treedef)).encode())
     for path, leaf in leaves:
@@ -50,9 +56,7 @@ def _update_with_leaves(digest, tree: PyTree, skip: frozenset = frozenset()) -> 
         if id(leaf) in skip:
             continue
         if eqx.is_array_like(leaf):
-            value = np.ascontiguousarray(np.asarray(leaf))
-            digest.update(f"{value.dtype}{value.shape}".encode())
-            digest.update(value.tobytes())
+            _update_with_array(digest, leaf)
         elif hasattr(leaf, "__qualname__"):  # a function or a class: by its name
             digest.update(f"{getattr(leaf, '__module__', '')}.{leaf.__qualname__}".encode())
         else:  # e.g. a string
@@ -70,9 +74,7 @@ def run_digest(template: PyTree, parameters: Mapping, inputs: PyTree) -> str:
     for leaves in (gains, jtu.tree_leaves(inputs)):
         digest.update(b"|")
         for leaf in leaves:
-            value = np.ascontiguousarray(np.asarray(leaf))
-            digest.update(f"{value.dtype}{value.shape}".encode())
-            digest.update(value.tobytes())
+            _update_with_array(digest, leaf)
     return digest.hexdigest()
 
 

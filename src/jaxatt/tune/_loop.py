@@ -252,8 +252,9 @@ def check_checkpoint(
 
     **Raises** [`NoCheckpointError`][] when `checkpoint` does not exist, and
     [`CheckpointMismatchError`][] when it belongs to another run (other parameters or
-    optimizer, another training batch or starting gains, another closed loop or objective,
-    more steps done than `steps`), the same errors `tune(..., resume=True)` raises.
+    optimizer, another training batch or starting gains, another closed loop, objective or
+    optimizer state, more steps done than `steps`), the same errors `tune(..., resume=True)`
+    raises.
     """
     steps = check_positive_int("check_checkpoint", "steps", steps)
     if not pathlib.Path(checkpoint).is_file():
