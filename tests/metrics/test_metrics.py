@@ -507,6 +507,14 @@ def test_float32_inputs_give_float32_outputs():
             "`ts` must be non-decreasing",
         ),
         (
+            lambda: metrics.settling_time(jnp.array([0.0, jnp.nan, 2.0]), jnp.ones(3), 0.1),
+            r"settling_time: `ts` must not hold NaN .*index 1",
+        ),
+        (
+            lambda: metrics.iae(jnp.array([0.0, 1.0, jnp.nan]), jnp.ones(3)),
+            r"iae: `ts` must not hold NaN",
+        ),
+        (
             lambda: metrics.soft_settling_time(jnp.arange(4.0), jnp.ones(4), 0.1, width=0.0),
             "`width` must be positive",
         ),

@@ -143,3 +143,16 @@ def test_transform_matches_autodiff_and_never_returns_nan():
     assert np.all(np.isfinite(out.kappa)) and np.all(np.isfinite(out.beta))
     np.testing.assert_allclose(out.z, [1.2, -1.0])
     assert np.all(np.asarray(envelope_margin(jnp.array([1.2, -1.0]), jnp.ones(2))) <= 0)
+
+
+@pytest.mark.parametrize("rho", [0.0, -0.5, np.nan, np.inf])
+def test_transform_refuses_an_envelope_that_is_not_positive(rho):
+    """rho <= 0 has no transformed error; clipping z would hide it as a plausible kappa."""
+    with pytest.raises(ValueError, match=r"transform_error: `rho` must be positive and finite"):
+        transform_error(jnp.array([0.1, 0.2]), jnp.zeros(2), jnp.array([1.0, rho]), jnp.zeros(2))
+
+
+def test_transform_under_jit_is_not_checked_on_the_host():
+    """A traced rho is the closed loop's (checked where the envelope is built): no host check."""
+    out = jax.jit(transform_error)(jnp.array([0.5]), jnp.zeros(1), jnp.array([1.0]), jnp.zeros(1))
+    np.testing.assert_allclose(out.kappa, np.arctanh(0.5), rtol=1e-14)

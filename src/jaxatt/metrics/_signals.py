@@ -2,9 +2,11 @@
 
 Every metric takes arrays with time as the leading axis. Shapes are static, so wrong ranks and
 mismatched lengths are reported at trace time with a `ValueError` naming the argument. The
-sample times are checked for monotonicity only when they are concrete: a traced `ts` (from a
-`diffrax` solve inside `jit`) may legitimately hold `inf` after a failed step with
+sample times are checked (no NaN, non-decreasing) only when they are concrete: a traced `ts`
+(from a `diffrax` solve inside `jit`) may legitimately hold `inf` after a failed step with
 `throw=False`, and a metric must not abort a Monte Carlo batch because of one bad sample.
+Concrete trailing `inf`s (the padding of such a solve) pass for the same reason; a NaN time
+never comes from a solver and is refused.
 
 Each public metric validates its arguments in Python and hands the arrays to a private
 `jax.jit` core. Under an outer `jit`/`vmap`/`grad` the core is simply inlined; called eagerly
@@ -46,7 +48,13 @@ def as_times(where: str, ts: ArrayLike, name: str, value: Array) -> Array:
             f"leading axis), got ts.shape={ts.shape} and {name}.shape={value.shape}."
         )
     if not isinstance(ts, jax.core.Tracer):
-        steps = np.diff(np.asarray(ts))
+        host = np.asarray(ts)
+        if np.any(np.isnan(host)):
+            raise ValueError(
+                f"{where}: `ts` must not hold NaN (a sample time is unknown), got NaN at index "
+                f"{int(np.argmax(np.isnan(host)))}."
+            )
+        steps = np.diff(host)
         if np.any(steps < 0):
             raise ValueError(
                 f"{where}: `ts` must be non-decreasing, got a step of {steps.min()!r} at index "

@@ -6,6 +6,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
+from .._validation import check, is_traced
 from ..metrics import AbstractMetric
 from ..numerics import amin, clip, vectorized_atanh
 
@@ -47,8 +48,21 @@ def transform_error(
     values stay finite (never NaN) and the caller reports the violation (a controller's
     `admissible` hook, so the sample's status becomes `constraint_violated`). `z` is returned
     unclipped.
+
+    **Envelope.** $\rho$ must be positive and finite: a concrete $\rho \le 0$ (an envelope that
+    has closed, or a sign slip) raises a `ValueError` naming `rho`; it has no transformed
+    error, and clipping would hide it as a plausible $\kappa$. A traced $\rho$ is not checked
+    here (the performance functions' constructors guarantee $\rho > 0$ inside the closed loop).
     """
     e = jnp.asarray(error)
+    if not is_traced(rho):
+        check(
+            "transform_error",
+            "rho",
+            rho,
+            lambda xp, r: (r > 0) & xp.isfinite(r),
+            "must be positive and finite (the envelope's half-width)",
+        )
     rho = jnp.asarray(rho)
     z = e / rho
     zc = clip(z, -Z_LIMIT, Z_LIMIT)
