@@ -123,6 +123,38 @@ def test_case2_order_and_the_torque_claims_from_our_numbers(result):
     assert not claims["case1_final_torque_error_below_case2_no_smoother"]
 
 
+def test_case2_boundary_layer_and_saturated_stretch_from_our_numbers(result):
+    """The torque section's mechanism, from our numbers (short run; case 2 does not depend on
+    the step, see the module docstring). (23)'s equilibrium p^2 = gamma_c gamma_d k^2 /
+    (6 alpha_bar (1 - k_p) tau_max) = 0.00926 k^2 is approached from above as k decays; the tanh
+    saturates (max |s_i|/p^2 > 1) while the beam's reaction torque on axis 3 exceeds the robust
+    term's (1 - k_p) tau_max = 6 N m, and leaves saturation near 70 s for good; from there the
+    law is the boundary layer's PD J q'' + (6/p^2) q' + (2 + 3k/p^2) q = 0 (w = 2 q'), an
+    underdamped oscillation near 0.6 rad/s in which the exits from neighbouring bands change
+    order: the rate leaves 3e-2 and 3e-4 first, the attitude 1e-3 (the test above)."""
+    _, m = result
+    c2 = m["case2"]
+    law = shi2024.controller()
+    coefficient = float(
+        law.gamma_c * law.gamma_d / (6 * law.alpha_bar * (1 - law.kp) * law.max_torque)
+    )
+    assert coefficient == pytest.approx(0.08 / 8.64, rel=1e-12)  # 0.00926
+    p2, k = c2["boundary_layer_final"], c2["adaptive_gain_final"]
+    assert coefficient * k**2 < p2 < 1.2 * coefficient * k**2
+    assert 400 < 6.0 / p2 < 500  # the tanh's slope (1 - k_p) tau_max / p^2 [N m s/rad]
+    robust = float((1 - law.kp) * law.max_torque)
+    assert c2["peak_reaction_torque"][2] > robust > max(c2["peak_reaction_torque"][:2])
+    assert c2["tanh_argument_peak"] > 5 and 65 < c2["tanh_saturation_end_time"] < 75
+    k_end, p2_end = c2["adaptive_gain_at_saturation_end"], c2["boundary_layer_at_saturation_end"]
+    j33 = shi2024.INERTIA[2][2]
+    stiffness, damping = 2 + 3 * k_end / p2_end, robust / p2_end
+    zeta = damping / (2 * np.sqrt(j33 * stiffness))
+    omega_d = np.sqrt(stiffness / j33) * np.sqrt(1 - zeta**2)
+    assert 0.5 < zeta < 0.7 and 0.55 < omega_d < 0.7
+    assert c2["rate_settle_time_3e-2"] + 5 < c2["attitude_settle_time_3e-2"]
+    assert c2["rate_settle_time_3e-4"] + 1 < c2["attitude_settle_time_3e-4"]
+
+
 def test_torque_metrics_on_a_hand_computed_signal():
     """Samples every 1 s over 10 s. Axis 1 decays through the 0.1 band between t = 5 (0.5) and
     t = 6 (0): last exit at 5 + 0.4 / 0.5 = 5.8 s; then it alternates by 0.1 (TV 0.35 over

@@ -373,6 +373,11 @@ def derived(loop: ClosedLoop | None, traj: Trajectory) -> dict[str, jax.Array]:
         "attitude_error_vector": error,
         "attitude_settle_time_1e-4": settling_time(ts, att, 1e-4),
         "rate_settle_time_1e-4": settling_time(ts, rate, 1e-4),
+        # the bands around 1e-3 where case 2's order flips (the notebook's torque section)
+        "attitude_settle_time_3e-2": settling_time(ts, att, 3e-2),
+        "rate_settle_time_3e-2": settling_time(ts, rate, 3e-2),
+        "attitude_settle_time_3e-4": settling_time(ts, att, 3e-4),
+        "rate_settle_time_3e-4": settling_time(ts, rate, 3e-4),
         "attitude_offset_final": jnp.max(jnp.where(late, att, 0.0)),
     }
     torque = torque_metrics(ts, u, -traj.signals["disturbance"])
@@ -384,8 +389,21 @@ def derived(loop: ClosedLoop | None, traj: Trajectory) -> dict[str, jax.Array]:
         # max_i |s_i| / p^2: below 1 the tanh of (26) works in its linear range (no relay).
         ratio = jnp.max(jnp.abs(traj.signals["s"]), axis=1) / traj.signals["p2"]
         out["tanh_argument_final"] = jnp.max(jnp.where(late, ratio, 0.0))
-    if loop is not None and "d_hat" in traj.signals:
+        out["tanh_argument_peak"] = jnp.max(ratio)
+        # The saturated stretch ends at the last exit of max_i |s_i|/p^2 from (1, inf): from
+        # there on the law is the boundary layer's PD, whose gains k and p^2 are read there.
+        end = settling_time(ts, ratio, 1.0)
+        out["tanh_saturation_end_time"] = end
+        out["adaptive_gain_at_saturation_end"] = jnp.interp(end, ts, traj.signals["k"])
+        out["boundary_layer_at_saturation_end"] = jnp.interp(end, ts, traj.signals["p2"])
+        out["adaptive_gain_final"] = traj.signals["k"][-1]
+        out["boundary_layer_final"] = traj.signals["p2"][-1]
+    if loop is not None:
+        # the appendages' reaction torque: the lumped disturbance less the external T_d
         lumped = jax.vmap(the_plant.lumped_disturbance)(ts, traj.plant_states, u)
+        reaction = jnp.abs(lumped - traj.signals["disturbance"])
+        out["peak_reaction_torque"] = jnp.max(reaction, axis=0)
+    if loop is not None and "d_hat" in traj.signals:
         diff = jnp.abs(traj.signals["d_hat"] - lumped)
         late = final_window(ts, OBSERVER_WINDOW)
         out["observer_error"] = diff
@@ -712,17 +730,20 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
 
     `metrics.json`: `settings`; the model data (`beam_modes` [rad/s], `beam_coupling_b`,
     `mass_matrix_min_eigenvalue` of the reading used, `literal_total_reading_min_eigenvalue`,
-    `implied_total_inertia`, `slosh_frequency`, `smoother_duration_literal`); per case
-    (`CASES`) `attitude_settle_time_1e-2`, `attitude_settle_time_1e-3`,
-    `attitude_settle_time_1e-4`, `rate_settle_time_1e-3`, `rate_settle_time_1e-4` [s] (last
-    exits of the infinity norms), `attitude_offset_final` (largest $\max_i|q_{e,i}|$ over the
-    last 50 s), `peak_torque` [N m], the torque's `torque_settle_time_0.1` [s],
-    `torque_error_final` [N m], `torque_variation_rate_final` and
-    `disturbance_variation_rate_final` [N m/s] (see [`torque_metrics`][]: against
-    $-T_d$, band 0.1 N m, last 50 s), `tanh_argument_final` (largest $\max_i|s_i|/p^2$ over
-    the last 50 s), `peak_modal_n1`, `peak_modal`, `peak_slosh` [m], `overshoot` (per axis),
-    `observer_error_final` [N m] (null for case 2), `lyapunov_max_increase` (largest increase
-    of $V_2$ between saved samples), `residual_modal_energy_after_150s` [J], `result`;
+    `implied_total_inertia`, `slosh_frequency`, `smoother_duration_literal`); per case (`CASES`)
+    `attitude_settle_time_1e-2`, `attitude_settle_time_1e-3`, `attitude_settle_time_1e-4`,
+    `rate_settle_time_1e-3`, `rate_settle_time_1e-4`, and at 3e-2 and 3e-4 [s] (last exits of the
+    infinity norms), `attitude_offset_final` (largest $\max_i|q_{e,i}|$ over the last 50 s),
+    `peak_torque` [N m], the torque's `torque_settle_time_0.1` [s], `torque_error_final` [N m],
+    `torque_variation_rate_final` and `disturbance_variation_rate_final` [N m/s] (see
+    [`torque_metrics`][]: against $-T_d$, band 0.1 N m, last 50 s), `tanh_argument_final` (largest
+    $\max_i|s_i|/p^2$ over the last 50 s), `tanh_argument_peak`, `tanh_saturation_end_time` [s]
+    (last exit of $\max_i|s_i|/p^2$ from above 1), `adaptive_gain_at_saturation_end`,
+    `boundary_layer_at_saturation_end` ($k$ and $p^2$ there), `adaptive_gain_final`,
+    `boundary_layer_final`, `peak_reaction_torque` [N m] (per axis, the lumped disturbance less
+    $T_d$: the appendages' reaction), `peak_modal_n1`, `peak_modal`, `peak_slosh` [m], `overshoot`
+    (per axis), `observer_error_final` [N m] (null for case 2), `lyapunov_max_increase` (largest
+    increase of $V_2$ between saved samples), `residual_modal_energy_after_150s` [J], `result`;
     `observer_floor` (full mode only) and `claims`.
     """
     out = pathlib.Path(out_dir)
