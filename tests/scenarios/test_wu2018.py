@@ -22,6 +22,7 @@ step's start, and the law's sig^0.6 term is not Lipschitz at z = 0. The rate err
 time to 1e-4 rad/s is 4.495 s here and 4.505 s at 5 ms and below.
 """
 
+import collections
 import json
 
 import jax
@@ -34,7 +35,7 @@ from jaxatt.numerics import sig_pow
 from jaxatt.orbits import anomaly_rates, hill_rotation, j2_gravity
 from jaxatt.plants import RelativeOrbit, RelativeOrbitJ2
 from jaxatt.scenarios import wu2018
-from jaxatt.simulation import ClosedLoop
+from jaxatt.simulation import ClosedLoop, Status, Trajectory
 
 
 @pytest.fixture(scope="module")
@@ -362,3 +363,26 @@ def test_a_switch_given_as_a_string_is_refused():
     """`bool("no")` is True: the template auxiliary was switched on by `"no"`."""
     with pytest.raises(ValueError, match="`template_auxiliary` must be True or False"):
         wu2018.controller(template_auxiliary="no")
+
+
+def test_rim_slide_reads_azimuth_and_speed_of_the_last_50s():
+    """`case2_direct`'s slide round the rim, on a path built here: a circle of radius 9.5 m
+    about the docking axis at x = 49 m, the azimuth atan2(z, y) going from 0 to 100 degrees at a
+    constant rate over 100 s. Over the last 50 s it goes from 50 to 100 degrees, at the speed
+    9.5 m x (pi/180 rad/deg) x 1 deg/s."""
+    ts = np.linspace(0.0, 100.0, 201)
+    angle = np.radians(ts)  # 1 degree per second
+    rho = np.stack([np.full_like(ts, 49.0), 9.5 * np.cos(angle), 9.5 * np.sin(angle)], axis=-1)
+    rate = np.radians(1.0)
+    rho_dot = np.stack(
+        [np.zeros_like(ts), -9.5 * rate * np.sin(angle), 9.5 * rate * np.cos(angle)], axis=-1
+    )
+    orbit = collections.namedtuple("Orbit", "rho rho_dot")(jnp.asarray(rho), jnp.asarray(rho_dot))
+    plant = collections.namedtuple("Plant", "orbit")(orbit)
+    states = collections.namedtuple("States", "plant")(plant)
+    status, never = jnp.asarray(int(Status.successful)), jnp.asarray(jnp.inf)
+    traj = Trajectory(jnp.asarray(ts), states, {}, status, never, {})
+    slide = wu2018._rim_slide(traj)
+    np.testing.assert_allclose(slide["azimuth_last_50s_deg"], [50.0, 100.0], rtol=1e-12)
+    np.testing.assert_allclose(slide["peak_speed_last_50s"], 9.5 * rate, rtol=1e-12)
+    np.testing.assert_allclose(slide["final_position"], rho[-1], rtol=1e-12)

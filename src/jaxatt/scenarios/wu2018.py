@@ -373,6 +373,23 @@ def _without(traj: Trajectory) -> dict:
     }
 
 
+def _rim_slide(traj: Trajectory) -> dict:
+    r"""Where a run that stalls on the corridor's lip ends, and how it slides round the rim over
+    the last 50 s: `final_position` [m], `azimuth_last_50s_deg` (the azimuth about the docking
+    axis $x$, $\operatorname{atan2}(z, y)$ in degrees, at the window's first and last saved
+    samples) and `peak_speed_last_50s` [m/s] over the saved samples."""
+    ts = np.asarray(traj.ts)
+    rho = np.asarray(traj.states.plant.orbit.rho)
+    speed = np.linalg.norm(np.asarray(traj.states.plant.orbit.rho_dot), axis=-1)
+    last_50s = ts >= ts[-1] - 50.0
+    azimuth = np.degrees(np.arctan2(rho[:, 2], rho[:, 1]))[last_50s]
+    return {
+        "final_position": rho[-1].tolist(),
+        "azimuth_last_50s_deg": [float(azimuth[0]), float(azimuth[-1])],
+        "peak_speed_last_50s": float(speed[last_50s].max()),
+    }
+
+
 def monte_carlo_summary(traj: Trajectory, starts: np.ndarray) -> dict:
     """Fraction safe (status successful and $h > 0$ at every saved sample), the minimum $h$
     over the batch, and the fraction that is safe *and* within 1 cm of $r_d$ at the end (a
@@ -405,8 +422,9 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
     [`trajectory_metrics`][] plus `without_avoidance` {`min_h`, `enters_keep_out`,
     `entry_time`, `result`}: `enters_keep_out` is null when that run failed another way
     before reaching $h \\le 0$), `case2_direct` (Case 2 flown straight at $r_d$ with
-    avoidance, at dt = 5 ms: safe, but it stalls on the corridor mouth's lip; null with
-    `short=True`),
+    avoidance, at dt = 5 ms: safe, but it stalls on the corridor mouth's lip;
+    [`trajectory_metrics`][] and where it slides on the rim (`final_position`,
+    `azimuth_last_50s_deg`, `peak_speed_last_50s`); null with `short=True`),
     `monte_carlo` ({`corridor`, `outside`}: [`monte_carlo_summary`][]), `without_avoidance`
     (the same summary of Cases 1 and 2 without the avoidance term, as a batch).
     `short=True` (CI): 4 + 4 Monte Carlo samples, no direct run.
@@ -458,9 +476,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
     metrics["without_avoidance"] = monte_carlo_summary(off, np.asarray(cases))
     if direct is not None:
         one = _take(direct, 0)
-        metrics["case2_direct"] = trajectory_metrics(one)
-        rho = np.asarray(one.states.plant.orbit.rho)[-1]
-        metrics["case2_direct"]["final_position"] = rho.tolist()
+        metrics["case2_direct"] = trajectory_metrics(one) | _rim_slide(one)
     else:
         metrics["case2_direct"] = None
     metrics["monte_carlo"] = {
