@@ -7,7 +7,8 @@ states, and the path of one array parameter. Each case must satisfy, on a short 
   the plant's default metrics, which every library plant declares on its own signals);
 - jit compiles once per structure: changing the parameter's value compiles nothing new;
 - gradients are finite: of a scalar loss of the final state and the controls, with respect to
-  every array of the closed loop (the library's safe primitives at singular points);
+  every array of the closed loop, from the batch's first state and from rest at the origin of
+  the state space (zero errors and rates: the library's safe primitives at singular points);
 - bad input raises before compiling: a NaN in the initial state is a `ValueError` naming it.
 
 And no library closed loop calls LAPACK in its step (checked on the lowered program).
@@ -310,6 +311,31 @@ def _index(tree, k):
     return jax.tree.map(lambda x: x[k], tree)
 
 
+def _at_rest(x0):
+    """The origin of a state space: every leaf zero, a quaternion `q` the identity. Where
+    |x|^a, norms, sign and the envelopes' ratios meet 0 (errors and rates exactly zero for the
+    regulation cases; the identity at rest for the tracking ones)."""
+
+    def origin(path, leaf):
+        if jax.tree_util.keystr(path).endswith(".q") and leaf.shape[-1:] == (4,):
+            return jnp.zeros_like(leaf).at[..., 0].set(1.0)
+        return jnp.zeros_like(leaf)
+
+    return jax.tree_util.tree_map_with_path(origin, x0)
+
+
+AT_REST = {  # cases whose origin is not a valid state: the rest state closest to it
+    # the target at the chaser's position would put both at the Earth's centre: zero errors
+    "relative pose, finite-time prescribed performance (Zhang 2021)": lambda x0: (
+        zhang.initial_state(*(jnp.zeros(3),) * 4)
+    ),
+    # the origin is the target, inside the keep-out sphere: at rest at the docking point r_d
+    "safe approach, J2 plant (Wu 2018, reconstructed)": lambda x0: eqx.tree_at(
+        lambda x: x.orbit.rho, _at_rest(x0), jnp.asarray(wu2018.R_D)
+    ),
+}
+
+
 def _final(traj):
     return sum(jnp.sum(leaf[-1] ** 2) for leaf in jax.tree.leaves(traj.states.plant)) + jnp.sum(
         traj.signals["u"] ** 2
@@ -362,6 +388,13 @@ def test_generic_contract(name):
     leaves = jax.tree.leaves(eqx.filter(grads, eqx.is_array))
     assert leaves and all(bool(jnp.all(jnp.isfinite(g))) for g in leaves), name
     assert any(bool(jnp.any(g != 0)) for g in leaves), name
+    # ... and at rest (the same compiled gradient, another start), where the safe primitives
+    # meet their singular points: exact zeros in |x|^a, sign, norms and ratios.
+    rest = AT_REST.get(name, _at_rest)(_index(x0s, 0))
+    assert jaxatt.simulate(loop, rest, 0.0, T1, **common).successful  # a valid start
+    rest_grads = jax.tree_util.tree_leaves_with_path(eqx.filter(_grad(loop, rest), eqx.is_array))
+    nonfinite = [jax.tree_util.keystr(p) for p, g in rest_grads if not jnp.all(jnp.isfinite(g))]
+    assert not nonfinite, (name, nonfinite)
 
     # Bad input raises before compiling, naming the argument.
     first, *rest = jax.tree.leaves(_index(x0s, 0))
