@@ -390,9 +390,9 @@ def test_generic_contract(name):
     assert any(bool(jnp.any(g != 0)) for g in leaves), name
     # ... and at rest (the same compiled gradient, another start), where the safe primitives
     # meet their singular points: exact zeros in |x|^a, sign, norms and ratios.
-    rest = AT_REST.get(name, _at_rest)(_index(x0s, 0))
-    assert jaxatt.simulate(loop, rest, 0.0, T1, **common).successful  # a valid start
-    rest_grads = jax.tree_util.tree_leaves_with_path(eqx.filter(_grad(loop, rest), eqx.is_array))
+    at_rest = AT_REST.get(name, _at_rest)(_index(x0s, 0))
+    assert jaxatt.simulate(loop, at_rest, 0.0, T1, **common).successful  # a valid start
+    rest_grads = jax.tree_util.tree_leaves_with_path(eqx.filter(_grad(loop, at_rest), eqx.is_array))
     nonfinite = [jax.tree_util.keystr(p) for p, g in rest_grads if not jnp.all(jnp.isfinite(g))]
     assert not nonfinite, (name, nonfinite)
 

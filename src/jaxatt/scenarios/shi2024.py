@@ -403,12 +403,11 @@ def derived(loop: ClosedLoop | None, traj: Trajectory) -> dict[str, jax.Array]:
         lumped = jax.vmap(the_plant.lumped_disturbance)(ts, traj.plant_states, u)
         reaction = jnp.abs(lumped - traj.signals["disturbance"])
         out["peak_reaction_torque"] = jnp.max(reaction, axis=0)
-    if loop is not None and "d_hat" in traj.signals:
-        diff = jnp.abs(traj.signals["d_hat"] - lumped)
-        late = final_window(ts, OBSERVER_WINDOW)
-        out["observer_error"] = diff
-        out["observer_error_final"] = jnp.max(jnp.where(late[:, None], diff, 0.0))
-    if loop is not None:
+        if "d_hat" in traj.signals:
+            diff = jnp.abs(traj.signals["d_hat"] - lumped)
+            late = final_window(ts, OBSERVER_WINDOW)
+            out["observer_error"] = diff
+            out["observer_error_final"] = jnp.max(jnp.where(late[:, None], diff, 0.0))
         v2 = lyapunov(loop, traj)
         out["lyapunov"] = v2
         out["lyapunov_max_increase"] = jnp.max(jnp.diff(v2))
