@@ -159,7 +159,6 @@ def run_batch(
     batched: PyTree | None = None,
     keep_trajectories: bool = False,
     batch_size: int | None = None,
-    sharding: NamedSharding | None = None,
     stream: bool = False,
 ) -> MonteCarloResult:
     """Simulate every sample of a batch and reduce each to its metrics (traceable).
@@ -172,8 +171,6 @@ def run_batch(
     (`sim.with_performance(sim.performance.resolve(n))`).
 
     - `batch_size=None`: one `vmap` over the batch; else `lax.map` chunks of `batch_size`.
-    - `sharding`: split the batch axis over the devices of a 1-D mesh (the batch must be a
-      multiple of the device count); each device runs its samples without communication.
     - `stream`: reduce the metrics on the fly at every save time instead of from a saved
       trajectory (same values; see [`MetricStream`][]); requires `streamable(metrics)` and
       `keep_trajectories=False`.
@@ -201,19 +198,7 @@ def run_batch(
             return jax.vmap(one)(chunk)
         return jax.lax.map(one, chunk, batch_size=batch_size)
 
-    xs = (x0s, batched)
-    if sharding is None:
-        values, status, failure_time, trajs = run(xs)
-    else:
-        # (n, ...) -> (devices, n / devices, ...): the device axis is vmapped and sharded.
-        shards = sharding.mesh.devices.size
-        split = jtu.tree_map(lambda x: x.reshape(shards, -1, *x.shape[1:]), xs)
-        split = jtu.tree_map(lambda x: jax.lax.with_sharding_constraint(x, sharding), split)
-        out = jax.vmap(run)(split)
-        out = jtu.tree_map(lambda x: jax.lax.with_sharding_constraint(x, sharding), out)
-        values, status, failure_time, trajs = jtu.tree_map(
-            lambda x: x.reshape(-1, *x.shape[2:]), out
-        )
+    values, status, failure_time, trajs = run((x0s, batched))
     objects = metrics if isinstance(metrics, Mapping) else {}
     smallest_is_worst = tuple(name for name, m in objects.items() if m.worst == "smallest")
     time_metrics = tuple(name for name, m in objects.items() if m.is_time)
@@ -526,6 +511,39 @@ def _place(x: Array, sharding: NamedSharding) -> Array:
     return jax.make_array_from_callback(host.shape, sharding, lambda index: host[index])
 
 
+def _on_each_device(run: Callable, shared: tuple, xs: PyTree, sharding: NamedSharding) -> PyTree:
+    """`run(*shared, xs)` for a batch `xs` sharded by `sharding`: one single-device program per
+    device of this process on that device's samples, the outputs assembled into arrays
+    sharded the same way (batch axis first).
+
+    Each device runs the program one device runs for a batch of its size. One `jit` of the
+    whole sharded batch instead (XLA's SPMD partitioning, what `monte_carlo` ran until
+    2026-12-06) ran Chen 2022 M1's scalarized loop 2.5x slower on XLA:CPU for the same samples
+    per device, and rounded differently (benchmarks/README.md, "Sharding: one program per
+    device"). The arrays of `shared` (loop, settings, metrics) are copied to each device.
+    """
+    here = [d for d in sharding.mesh.devices.flat if d.process_index == jax.process_index()]
+    parts = []
+    for device in here:
+        local_shared = jtu.tree_map(
+            lambda a: jax.device_put(a, device) if isinstance(a, jax.Array) else a, shared
+        )
+        local_xs = jtu.tree_map(lambda a: _shard_on(a, device), xs)
+        parts.append(run(*local_shared, local_xs))
+    devices = sharding.mesh.devices.size
+
+    def assemble(*arrays):
+        shape = (arrays[0].shape[0] * devices, *arrays[0].shape[1:])
+        return jax.make_array_from_single_device_arrays(shape, sharding, list(arrays))
+
+    return jtu.tree_map(assemble, *parts)
+
+
+def _shard_on(x: Array, device) -> Array:
+    """The part of the sharded batch array `x` that `device` holds."""
+    return next(shard.data for shard in x.addressable_shards if shard.device == device)
+
+
 def split_batched_fields(
     where: str, closed_loop: AbstractClosedLoop, loop_axes: PyTree | None, n: int
 ) -> tuple[PyTree | None, AbstractClosedLoop]:
@@ -560,12 +578,14 @@ def monte_carlo(
     shard: bool = True,
     performance: Performance | None = None,
 ) -> MonteCarloResult:
-    r"""Simulate `closed_loop` from every initial state of a batch, in one compiled call.
+    r"""Simulate `closed_loop` from every initial state of a batch, in one compiled call (one
+    per device when sharded).
 
     Sample $k$ is `simulate(loop_k, x0s[k], t0, t1, dt=dt, ..., throw=False)` where `loop_k`
     is `closed_loop` with its batched fields (marked by `loop_axes`, e.g. from
     [`batch_field`][]) replaced by their $k$-th entries; the metrics reduce each trajectory.
-    All samples run in one `eqx.filter_jit` computation ([`run_batch`][]):
+    The samples run in one `eqx.filter_jit` computation of [`run_batch`][] (one per device
+    when sharded):
 
     - **vmap** over the batch (default), or **chunks** of `batch_size` samples with
       `jax.lax.map(..., batch_size=...)` when memory binds (the whole trajectory of every
@@ -573,8 +593,12 @@ def monte_carlo(
     - **sharding** (`shard=True`, more than one device in `jax.devices()`): the batch axis is
       split over a 1-D `jax.sharding.Mesh` of all devices with
       `NamedSharding(mesh, PartitionSpec("batch"))`, padded to a multiple of the device count
-      with copies of sample 0 (the padding is stripped from the result). Each device simulates
-      its own samples without communication, chunked by `batch_size` if given. For several
+      with copies of sample 0 (the padding is stripped from the result). Each device runs,
+      without communication, the single-device program of its own samples (the program one
+      device would run for that many), chunked by `batch_size` if given. On a CPU, XLA
+      already spreads one device's kernels over the cores: forced host devices in one process
+      ran 0.80x as fast as one device, one process per core (`jax.distributed`, each pinned
+      to its core) 1.42x (Chen 2022 M1, 10 000 samples, 2 cores; `bench_devices.py`). For several
       hosts call `jax.distributed.initialize()` first, in every process, and build the same
       batch in every process (same keys): `jax.devices()` then lists every host's devices,
       each process supplies its own shards, and [`MonteCarloResult`][]'s summaries gather the
@@ -663,18 +687,24 @@ def monte_carlo(
             Mesh(np.asarray(devices), (_BATCH_AXIS,)), PartitionSpec(_BATCH_AXIS)
         )
         xs = jtu.tree_map(lambda x: _place(_pad(jnp.asarray(x), padded), sharding), xs)
-    # Checked on the host above: the program holds no host callback.
-    out = compiled(run_batch, sim.performance, (loop, xs))(
-        loop,
-        xs[0],
-        sim,
-        metrics,
-        batched=xs[1],
-        keep_trajectories=keep_trajectories,
-        batch_size=batch_size,
-        sharding=sharding,
-        stream=stream,
-    )
+
+    def run(loop, sim, metrics, xs):
+        # Checked on the host above: the program holds no host callback.
+        return compiled(run_batch, sim.performance, (loop, xs))(
+            loop,
+            xs[0],
+            sim,
+            metrics,
+            batched=xs[1],
+            keep_trajectories=keep_trajectories,
+            batch_size=batch_size,
+            stream=stream,
+        )
+
+    if sharding is None:
+        out = run(loop, sim, metrics, xs)
+    else:
+        out = _on_each_device(run, (loop, sim, metrics), xs, sharding)
     if padded != n:
         out = jtu.tree_map(lambda x: x[:n], out)
     return out
