@@ -78,6 +78,11 @@ SCRIPT = textwrap.dedent(
             k: np.asarray(v).tolist() for k, v in run(n, batch_size=2).metrics.items()
         },
     }
+    kept = [run(n, keep_trajectories=True, shard=flag).trajectories for flag in (True, False)]
+    out["kept_devices"] = len(kept[0].states.plant.omega.sharding.device_set)
+    out["kept_sharded"], out["kept_unsharded"] = (
+        np.asarray(t.states.plant.omega[:, -1]).tolist() for t in kept
+    )
     padded = run(5)
     out["padded"] = {k: np.asarray(v).tolist() for k, v in padded.metrics.items()}
     out["padded_ok"] = np.asarray(padded.successful).tolist()
@@ -125,6 +130,15 @@ def test_sharded_results_equal_the_unsharded_run(report, variant):
         np.testing.assert_allclose(
             _array(report[variant][name]), _array(expected), rtol=1e-12, err_msg=name
         )
+
+
+def test_kept_trajectories_are_assembled_across_the_devices(report):
+    assert report["kept_devices"] == 2
+    np.testing.assert_allclose(
+        np.array(report["kept_sharded"], dtype=float),
+        np.array(report["kept_unsharded"], dtype=float),
+        rtol=1e-12,
+    )
 
 
 def test_padding_is_stripped_and_failures_stay_per_sample(report):
