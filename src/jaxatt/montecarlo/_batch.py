@@ -502,8 +502,7 @@ def _pad(x: Array, size: int) -> Array:
 
 
 def _place(x: Array, sharding: NamedSharding) -> Array:
-    if isinstance(x, jax.core.Tracer):
-        return jax.lax.with_sharding_constraint(x, sharding)
+    """The batch array `x` (concrete: a traced batch is never sharded) placed by `sharding`."""
     if isinstance(x, jax.Array) and not x.is_fully_addressable:
         return jax.device_put(x, sharding)
     # Every process holds the full batch (same key, same draws); each supplies its shards.
