@@ -596,10 +596,11 @@ def monte_carlo(
       without communication, the single-device program of its own samples (the program one
       device would run for that many), chunked by `batch_size` if given. On a CPU, XLA
       already spreads one device's kernels over the cores: forced host devices in one process
-      ran 0.80x as fast as one device, one process per core (`jax.distributed`, each pinned
-      to its core) 1.42x (Chen 2022 M1, 10 000 samples, 2 cores; `bench_devices.py`). For several
-      hosts call `jax.distributed.initialize()` first, in every process, and build the same
-      batch in every process (same keys): `jax.devices()` then lists every host's devices,
+      ran 0.80-0.84x as fast as one device, one process per core (`jax.distributed`, each
+      pinned to its core) 1.42-1.51x (Chen 2022 M1, 10 000 samples, 2 cores;
+      `bench_devices.py`). For several hosts call `jax.distributed.initialize()` first, in
+      every process, and build the same batch in every process (same keys): `jax.devices()`
+      then lists every host's devices,
       each process supplies its own shards, and [`MonteCarloResult`][]'s summaries gather the
       metrics to every host. `shard=False` keeps everything on the default device.
 
