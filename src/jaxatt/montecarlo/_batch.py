@@ -600,9 +600,9 @@ def monte_carlo(
       pinned to its core) 1.42-1.51x (Chen 2022 M1, 10 000 samples, 2 cores;
       `bench_devices.py`). For several hosts call `jax.distributed.initialize()` first, in
       every process, and build the same batch in every process (same keys): `jax.devices()`
-      then lists every host's devices,
-      each process supplies its own shards, and [`MonteCarloResult`][]'s summaries gather the
-      metrics to every host. `shard=False` keeps everything on the default device.
+      then lists every host's devices, each process supplies its own shards, and
+      [`MonteCarloResult`][]'s summaries gather the metrics to every host. `shard=False` keeps
+      everything on the default device.
 
     **Failures never abort the batch and never look good.** A sample that fails (non-finite
     state, invalid plant, a controller's constraint violation; see
