@@ -32,6 +32,7 @@ from jaxatt.performance import MinimumMargin
 from jaxatt.plants import MRPState, QuaternionState
 from jaxatt.scenarios import chen2022_two_phase_power as chen
 from jaxatt.simulation import (
+    NO_LIBRARY_FUSIONS,
     SCALARIZE_FROM,
     SCALARIZED_VECTOR_WIDTH,
     Euler,
@@ -182,21 +183,44 @@ def test_default_scalarization_rule():
 
 def test_vector_width_option():
     option = "xla_cpu_prefer_vector_width"
-    auto = Performance()
+    auto = Performance(library_fusions=True)  # the width alone (the next test has the rest)
     assert SCALARIZED_VECTOR_WIDTH == 512
     assert auto.resolve(1000, "cpu").compiler_options("cpu") == {option: 512}  # scalarized
     assert auto.resolve(999, "cpu").compiler_options("cpu") == {}  # plain: XLA's default
-    assert Performance(vector_width=512).resolve(1000, "cpu").compiler_options("cpu") == {
-        option: 512
-    }
-    assert Performance(vector_width=256).resolve(1000, "cpu").compiler_options("cpu") == {
-        option: 256
-    }
-    assert Performance(vector_width=128).resolve(1, "cpu").compiler_options("cpu") == {option: 128}
+    for width in (512, 256, 128):
+        chosen = Performance(vector_width=width, library_fusions=True)
+        assert chosen.resolve(1000, "cpu").compiler_options("cpu") == {option: width}
+    assert Performance(vector_width=128, library_fusions=True).resolve(1, "cpu").compiler_options(
+        "cpu"
+    ) == {option: 128}
     assert Performance(scalarize=True, vector_width=512).compiler_options("gpu") == {}
     for bad in (384, 0, True):  # (non-integers: the test suite's type checker refuses them first)
         with pytest.raises(ValueError, match="`vector_width` must be None or one of 128, 256, 512"):
             Performance(vector_width=bad)
+
+
+def test_small_products_stay_out_of_the_library_by_default():
+    # jaxatt's CPU programs compile XLA's small dot products themselves (`NO_LIBRARY_FUSIONS`);
+    # `library_fusions=True` gives XLA's default back. The option must reach XLA and do what
+    # it says: a batched 3x3 product compiles to a YNNPACK fusion without it, and not with it.
+    assert NO_LIBRARY_FUSIONS == {"xla_cpu_experimental_ynn_fusion_type": ""}
+    for performance in (Performance(), Performance().resolve(1000, "cpu")):
+        assert performance.compiler_options("cpu").items() >= NO_LIBRARY_FUSIONS.items()
+    assert Performance(library_fusions=True).compiler_options("cpu") == {}
+    assert Performance().compiler_options("gpu") == {}
+
+    inertia = jnp.array([[20.0, 1.2, 0.9], [1.2, 17.0, 1.4], [0.9, 1.4, 15.0]])
+    lowered = jax.jit(jax.vmap(lambda w: inertia @ w)).lower(jnp.ones((32, 3)))
+    library = lowered.compile().as_text()
+    own = lowered.compile(Performance().compiler_options("cpu")).as_text()
+    assert "__ynn_fusion" in library and "__ynn_fusion" not in own
+
+
+@pytest.mark.parametrize("bad", [None, 1, "False"])
+def test_library_fusions_must_be_a_flag(bad, no_jaxtyping):
+    # (The suite's type checking rejects these first; users meet this.)
+    with pytest.raises(ValueError, match="`library_fusions` must be True or False"):
+        Performance(library_fusions=bad)
 
 
 def test_compiler_options_reach_xla(monkeypatch):

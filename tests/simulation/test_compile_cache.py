@@ -28,7 +28,7 @@ from jaxatt.plants import MRPState, RigidBodyMRP
 from jaxatt.simulation import ClosedLoop, Performance, Simulation
 from jaxatt.simulation._compiled import compiled
 from jaxatt.simulation._loop import integrate
-from jaxatt.tune._loop import _loss_and_grad
+from jaxatt.tune._loop import _loss_and_grad, _program
 
 
 J = jnp.diag(jnp.array([20.0, 17.0, 15.0]))
@@ -67,7 +67,9 @@ def test_jaxatts_compiled_programs_hold_no_host_callback():
         "monte_carlo, scalarized": compiled(run_batch, scalarized, ()).lower(
             loop, x0s, sim.with_performance(scalarized), METRICS, stream=True
         ),
-        "tune step": _loss_and_grad.lower(u, loop, params, objective, x0s),
+        "tune step": _program(_loss_and_grad, objective, (u, x0s)).lower(
+            u, loop, params, objective, x0s
+        ),
     }
     programs = {name: lowered.as_text() for name, lowered in programs.items()}
     for name, text in programs.items():

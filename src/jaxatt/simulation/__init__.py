@@ -22,6 +22,7 @@ from ._loop import (
     integrate_streaming as integrate_streaming,
 )
 from ._performance import (
+    NO_LIBRARY_FUSIONS as NO_LIBRARY_FUSIONS,
     SCALARIZE_FROM as SCALARIZE_FROM,
     SCALARIZED_VECTOR_WIDTH as SCALARIZED_VECTOR_WIDTH,
     Performance as Performance,

@@ -8,6 +8,7 @@ program.
 """
 
 import dataclasses
+import functools
 import math
 import numbers
 
@@ -29,6 +30,10 @@ VECTOR_WIDTHS = (128, 256, 512)
 SCALARIZED_VECTOR_WIDTH = 512
 """With `Performance(vector_width=None)` (the default), the SIMD width [bits] XLA:CPU is asked
 to prefer for a scalarized loop."""
+
+NO_LIBRARY_FUSIONS = {"xla_cpu_experimental_ynn_fusion_type": ""}
+"""The XLA:CPU compiler option that keeps small dot products in XLA's own generated code
+instead of handing them to its YNNPACK library (`Performance(library_fusions=False)`)."""
 
 
 class Performance(eqx.Module):
@@ -53,6 +58,16 @@ class Performance(eqx.Module):
     - `max_unrolled_products`: matrix products needing more scalar multiplications than this
       stay one packed product (default 64; a 3x3 matrix product needs 27). Keeps the compile
       time of plants with graph Laplacians or modal matrices linear in their size.
+    - `library_fusions`: let XLA:CPU hand the loop's small dot products (the batched 3x3
+      products of a plain, vmapped loop) to its YNNPACK library, XLA's own default. `False`
+      (jaxatt's default) compiles them with the rest of the loop (the compiler option
+      [`NO_LIBRARY_FUSIONS`][]): a library call per product costs more than the product at
+      these sizes. Measured on Chen 2022 M1 (2-core AVX-512 Xeon, float64, 2026-12-06,
+      benchmarks/README.md, "Small products without the library"): the tuning gradient of 32
+      samples 1.21x faster (0.337 -> 0.278 s), of 256 samples 1.07x; a 32-sample Monte Carlo
+      1.3x; no change from 512 samples on and for the scalarized loop (it has no products
+      left); the same values to 1e-15. CPU only, and only where this jaxlib knows the option
+      (checked once per process by compiling an empty program with it).
     - `vector_width`: the SIMD width in bits that XLA:CPU should prefer when it generates the
       loop's code (XLA's `xla_cpu_prefer_vector_width` compiler option, passed to the `jax.jit`
       of the program [`simulate`][jaxatt.simulate] or
@@ -82,6 +97,7 @@ class Performance(eqx.Module):
     max_scalarized_size: int = eqx.field(default=64, static=True)
     max_unrolled_products: int = eqx.field(default=64, static=True)
     vector_width: int | None = eqx.field(default=None, static=True)
+    library_fusions: bool = eqx.field(default=False, static=True)
 
     def __check_init__(self):
         # `1 in (True, False)` holds: without the type check 1, 0 and 1.0 passed.
@@ -91,6 +107,11 @@ class Performance(eqx.Module):
             )
         check_positive_int("Performance", "max_scalarized_size", self.max_scalarized_size)
         check_positive_int("Performance", "max_unrolled_products", self.max_unrolled_products)
+        if not isinstance(self.library_fusions, (bool, np.bool_)):
+            raise ValueError(
+                "Performance: `library_fusions` must be True or False, "
+                f"got {self.library_fusions!r}."
+            )
         width = self.vector_width
         if width is not None and (
             isinstance(width, bool)
@@ -115,7 +136,7 @@ class Performance(eqx.Module):
         decided = backend == "cpu" and samples_at_once >= SCALARIZE_FROM
         return dataclasses.replace(self, scalarize=decided)
 
-    def compiler_options(self, backend: str | None = None) -> dict[str, int]:
+    def compiler_options(self, backend: str | None = None) -> dict[str, int | str]:
         """XLA compiler options for the program that runs a loop with these (resolved)
         options on `backend` (default: JAX's default backend), as `jax.jit(...,
         compiler_options=...)` takes them; empty when XLA's defaults apply."""
@@ -125,7 +146,21 @@ class Performance(eqx.Module):
         width = self.vector_width
         if width is None and self.scalarize:
             width = SCALARIZED_VECTOR_WIDTH
-        return {} if width is None else {"xla_cpu_prefer_vector_width": width}
+        options = {} if width is None else {"xla_cpu_prefer_vector_width": width}
+        if not self.library_fusions and _compiler_accepts(tuple(NO_LIBRARY_FUSIONS.items())):
+            options.update(NO_LIBRARY_FUSIONS)
+        return options
+
+
+@functools.cache
+def _compiler_accepts(options: tuple[tuple[str, object], ...]) -> bool:
+    """Whether this jaxlib's XLA:CPU compiles an empty program with `options` (an option
+    that an older or newer XLA does not know is refused there)."""
+    try:
+        jax.jit(lambda x: x).lower(np.float32(0)).compile(dict(options))
+    except Exception:  # XLA's error types differ between jaxlib versions
+        return False
+    return True
 
 
 def samples_at_once(n: int, *, batch_size: int | None = None, devices: int = 1) -> int:

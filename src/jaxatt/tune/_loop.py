@@ -19,8 +19,9 @@ from .._validation import (
     check_flag,
     check_positive_int,
     check_tree_finite,
-    host_checked_program,
 )
+from ..simulation import Performance
+from ..simulation._compiled import compiled
 from ._checkpoint import NoCheckpointError, TuneState, load_checkpoint, save_checkpoint
 from ._fingerprint import fingerprint as run_fingerprint
 from ._objective import AbstractObjective
@@ -167,12 +168,22 @@ def loss_and_grad(
     _check_mode(mode, objective)
     check_parameters(template, parameters)
     _check_inputs("loss_and_grad", objective, template, inputs)
-    step = _loss_and_grad if mode == "reverse" else _loss_and_grad_forward
+    fn = _loss_and_grad if mode == "reverse" else _loss_and_grad_forward
+    step = _program(fn, objective, (unconstrained, inputs))
     return step(dict(unconstrained), template, parameters, objective, inputs)
 
 
-@eqx.filter_jit
-@host_checked_program  # `loss_and_grad` and `tune` check parameters and inputs on the host
+def _program(fn: Callable, objective: Callable, inputs: PyTree) -> Callable:
+    """`fn` compiled (`eqx.filter_jit`, host-checked: `loss_and_grad`, `tune` and `evaluate`
+    check parameters and inputs on the host) with the CPU compiler options of a plain loop:
+    the objective's `Performance(library_fusions=...)` choice, jaxatt's default (False)
+    for an objective without one. A gradient runs the plain program whatever the objective's
+    `scalarize` (see `Performance`)."""
+    chosen = getattr(getattr(objective, "simulation", None), "performance", None)
+    library = chosen.library_fusions if isinstance(chosen, Performance) else False
+    return compiled(fn, Performance(scalarize=False, library_fusions=library), inputs)
+
+
 def _loss_and_grad(unconstrained, template, parameters, objective, inputs):
     def loss_fn(u):
         return objective(apply(template, parameters, u), inputs)
@@ -180,8 +191,6 @@ def _loss_and_grad(unconstrained, template, parameters, objective, inputs):
     return eqx.filter_value_and_grad(loss_fn, has_aux=True)(unconstrained)
 
 
-@eqx.filter_jit
-@host_checked_program
 def _loss_and_grad_forward(unconstrained, template, parameters, objective, inputs):
     def loss_fn(u):
         loss, aux = objective(apply(template, parameters, u), inputs)
@@ -370,7 +379,9 @@ def tune(
     _check_mode(mode, objective)
     check_parameters(template, parameters)
     _check_inputs("tune", objective, template, inputs)
-    step = _loss_and_grad if mode == "reverse" else _loss_and_grad_forward
+    step = _program(
+        _loss_and_grad if mode == "reverse" else _loss_and_grad_forward, objective, inputs
+    )
     if optimizer is None:
         optimizer = _DEFAULT_OPTIMIZER
 
@@ -450,10 +461,8 @@ def evaluate(module: PyTree, objective: Callable, inputs: PyTree) -> tuple[Array
     (`aux["status"]`, `inf` times) and makes the loss `inf`.
     """
     _check_inputs("evaluate", objective, module, inputs)
-    return _evaluate(module, objective, inputs)
+    return _program(_evaluate, objective, inputs)(module, objective, inputs)
 
 
-@eqx.filter_jit
-@host_checked_program
 def _evaluate(module, objective, inputs):
     return objective(module, inputs)
