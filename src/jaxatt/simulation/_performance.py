@@ -147,17 +147,17 @@ class Performance(eqx.Module):
         if width is None and self.scalarize:
             width = SCALARIZED_VECTOR_WIDTH
         options = {} if width is None else {"xla_cpu_prefer_vector_width": width}
-        if not self.library_fusions and _compiler_accepts(tuple(NO_LIBRARY_FUSIONS.items())):
+        if not self.library_fusions and _xla_knows_no_library_fusions():
             options.update(NO_LIBRARY_FUSIONS)
         return options
 
 
 @functools.cache
-def _compiler_accepts(options: tuple[tuple[str, object], ...]) -> bool:
-    """Whether this jaxlib's XLA:CPU compiles an empty program with `options` (an option
-    that an older or newer XLA does not know is refused there)."""
+def _xla_knows_no_library_fusions() -> bool:
+    """Whether this jaxlib's XLA compiles an empty program with [`NO_LIBRARY_FUSIONS`][] (an
+    option that an older or newer XLA does not know is refused there)."""
     try:
-        jax.jit(lambda x: x).lower(np.float32(0)).compile(dict(options))
+        jax.jit(lambda x: x).lower(np.float32(0)).compile(NO_LIBRARY_FUSIONS)
     except Exception:  # XLA's error types differ between jaxlib versions
         return False
     return True
