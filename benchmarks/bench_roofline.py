@@ -30,6 +30,19 @@ Programs, each at every batch in `--batches`:
 - `hand scan`: `_reference.make_hand_scan` (`benchmarks/_reference.py`: the same equations
   written elementwise, one `lax.scan`, not jaxatt code).
 
+**Pinned processes** (`--processes N`, N > 1): each jaxatt program at each batch is also run
+as N processes of `batch / N` samples each (consecutive slices of the same batch), process i
+pinned to core i (`os.sched_setaffinity` in the child before JAX starts its CPU client,
+whose threads inherit the pin: XLA sees one core and splits no kernel), each compiling and
+warming up its own program first; then each timed round sends all of them "go" at once and
+waits until all have finished (the round's wall time, min over `--repeat` rounds). This is
+what `monte_carlo` does under `jax.distributed` with one process per core (docs/scaling.md;
+`bench_devices.py` times that recipe itself, with its gathers): one single-device program
+per core, no communication during the loop. The row's FLOPs are N x the cost of one
+process's step (cut from the program of `batch / N` samples as above), so its rates and
+fractions of the derived peak are of the whole machine. Checked: the processes' final states
+equal the one-process program's (1e-9; float32 1e-4).
+
 **Achieved FLOP/s** = FLOPs per batch step x steps / run time over `--horizon` (compile timed
 apart; one warm-up call, then the min of `timeit.repeat(..., number=1, repeat=R)`), executed
 and useful (written). The run includes the saves (11 of them), which the per-step count leaves
@@ -59,6 +72,12 @@ compiled four times per batch, and the batch-16384 runs take about 30 s each):
 
     python benchmarks/bench_roofline.py   # batches 1024 16384, T 2 s, dt 1e-3, 2048^2 matmul
 
+The roofline in one process per core (about 5 minutes here; `--batches` must be multiples of
+`--processes`):
+
+    python benchmarks/bench_roofline.py --batches 1024 16384 --jaxatt-calls monte_carlo \
+        --processes 2
+
 A small run (about 1.5 minutes on a loaded 2-core machine):
 
     python benchmarks/bench_roofline.py --batches 64 --horizon 0.2 --bandwidth-mib 64 \
@@ -66,8 +85,12 @@ A small run (about 1.5 minutes on a loaded 2-core machine):
 """
 
 import argparse
+import os
 import pathlib
+import subprocess
 import sys
+import tempfile
+import time
 
 import _reference as ref
 import numpy as np
@@ -103,11 +126,20 @@ def parse_args(argv=None) -> argparse.Namespace:
     )
     p.add_argument("--no-scan", action="store_true", help="skip the hand scan")
     p.add_argument("--no-plot", action="store_true", help="skip the figure")
+    p.add_argument(
+        "--processes",
+        type=int,
+        default=1,
+        help="also run each jaxatt program as this many processes, one pinned to each core",
+    )
+    p.add_argument("--pinned-worker", nargs=5, help=argparse.SUPPRESS)
     common.add_common_arguments(p)
     args = p.parse_args(argv)
     common.finish_arguments(p, args, [args.horizon], "roofline.json")
     if min(args.batches) < 1 or args.cost_steps < 2 or args.matmul_size < 1:
         p.error("--batches must be positive, --cost-steps at least 2")
+    if args.processes < 1 or any(b % args.processes for b in args.batches):
+        p.error(f"--processes must be positive and divide every batch, got {args.processes}")
     return args
 
 
@@ -352,6 +384,126 @@ def measure_program(name, loop, x0s, args, peak, measured, *, body_once: bool):
     return row, final, ratio
 
 
+# ---------------------------------------------------------------------------------------------
+# One process per core.
+
+
+def _slice(tree, start: int, stop: int):
+    import jax
+
+    return jax.tree_util.tree_map(lambda x: x[start:stop], tree)
+
+
+def pinned_worker(args) -> int:
+    """One of `--processes` pinned processes (`--pinned-worker CALL BATCH PART CORE OUT`):
+    pin this process to CORE, compile and warm up `CALL` on slice PART of the first BATCH
+    samples, say `READY <compile s>`, run once per "go" line on stdin (saying `DONE` after
+    each), save the final states to OUT."""
+    call, batch, part, core, out_path = args.pinned_worker
+    os.sched_setaffinity(0, {int(core)})  # before JAX's CPU client sizes its thread pool
+    import jax
+
+    batch, part = int(batch), int(part)
+    common.enable_precision(args.dtype)
+    steps = common.steps_of(args.horizon, args.dt)
+    loop, pool = common.m1_setup(args.seed, max(args.batches), np.dtype(args.dtype))
+    size = batch // args.processes
+    x0s = _slice(pool, part * size, (part + 1) * size)
+    timed = common.montecarlo.make_jaxatt(
+        call, args.horizon, args.dt, common.default_save_every(steps)
+    )
+    start = time.perf_counter()
+    compiled = timed.lower(loop, x0s).compile()
+    compile_s = time.perf_counter() - start
+    out = jax.block_until_ready(compiled(loop, x0s))
+    print(f"READY {compile_s}", flush=True)
+    for line in sys.stdin:
+        if line.strip() != "go":
+            break
+        out = jax.block_until_ready(compiled(loop, x0s))
+        print("DONE", flush=True)
+    np.save(out_path, np.asarray(out[0]))
+    return 0
+
+
+def _expect(process, word: str, log: pathlib.Path) -> str:
+    line = process.stdout.readline()
+    if not line.startswith(word):
+        process.kill()
+        tail = log.read_text()[-3000:]
+        raise SystemExit(f"pinned worker: expected {word!r}, got {line!r}\n{tail}")
+    return line
+
+
+def time_pinned(call: str, batch: int, args) -> dict:
+    """Compile time (the slowest process's), run time (min over `--repeat` rounds of all
+    processes started together) and final states (in batch order) of `call` in
+    `--processes` pinned processes."""
+    n, cores = args.processes, os.cpu_count() or 1
+    argv = [a for a in sys.argv[1:]]
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = pathlib.Path(tmp)
+        procs, logs = [], []
+        for i in range(n):
+            logs.append(tmp / f"worker{i}.log")
+            worker = [call, str(batch), str(i), str(i % cores), str(tmp / f"final{i}.npy")]
+            procs.append(
+                subprocess.Popen(
+                    [sys.executable, __file__, *argv, "--pinned-worker", *worker],
+                    stdin=subprocess.PIPE,
+                    stdout=subprocess.PIPE,
+                    stderr=logs[-1].open("w"),
+                    text=True,
+                )
+            )
+        compile_s = max(float(_expect(p, "READY", log).split()[1]) for p, log in zip(procs, logs))
+        rounds = []
+        for _ in range(args.repeat):
+            start = time.perf_counter()
+            for p in procs:
+                p.stdin.write("go\n")
+                p.stdin.flush()
+            for p, log in zip(procs, logs):
+                _expect(p, "DONE", log)
+            rounds.append(time.perf_counter() - start)
+        for p, log in zip(procs, logs):
+            p.stdin.write("quit\n")
+            p.stdin.close()
+            if p.wait() != 0:
+                raise SystemExit(f"pinned worker failed\n{log.read_text()[-3000:]}")
+        final = np.concatenate([np.load(tmp / f"final{i}.npy") for i in range(n)])
+    return {"compile_s": compile_s, "run_s": min(rounds), "rounds_s": rounds, "final": final}
+
+
+def measure_pinned(name, loop, x0s, args, peak, measured, reference_final):
+    """The row of jaxatt program `name` at this batch in `--processes` pinned processes, and
+    the largest difference of its final states from the one-process program's."""
+    n, k = args.processes, args.cost_steps
+    batch, steps = x0s.q.shape[0], common.steps_of(args.horizon, args.dt)
+    call = name.split()[1]
+    short = common.montecarlo.make_jaxatt(call, k * args.dt, args.dt, k)
+    cost = step_cost(short, (loop, _slice(x0s, 0, batch // n)), k)
+    row = {"program": f"{name}, {n} pinned processes", "batch": batch, "steps": steps}
+    row.update(processes=n, batch_per_process=batch // n)
+    if "error" in cost:
+        return {**row, "error": cost["error"]}
+    timing = time_pinned(call, batch, args)
+    machine = {key: {m: v * n for m, v in cost[key].items()} for key in ("step", "written")}
+    row.update({key: timing[key] for key in ("compile_s", "run_s", "rounds_s")})
+    row.update(rates(machine, batch, steps, timing["run_s"], peak, measured))
+    row["max_abs_diff_vs_one_process"] = common.montecarlo.max_abs_diff(
+        reference_final, timing["final"]
+    )
+    print(
+        f"  {row['program']:>38}, batch {batch:>6}: {row['written_flops_per_state_step']:.4g} "
+        f"written FLOP per state-step; run {row['run_s']:.4g} s, useful "
+        f"{row['useful_flops_per_s']:.3g} FLOP/s; final states vs one process "
+        f"{row['max_abs_diff_vs_one_process']:.3g}",
+        flush=True,
+    )
+    return row
+
+
 def main(args) -> int:
     common.enable_precision(args.dtype)
     dtype = np.dtype(args.dtype)
@@ -397,6 +549,8 @@ def main(args) -> int:
             rows.append(row)
             if final is not None:
                 finals[name] = final
+            if args.processes > 1 and name.startswith("jaxatt") and final is not None:
+                rows.append(measure_pinned(name, loop, x0s, args, peak, measured, final))
         for row in rows:
             compared = row["program"] in finals and row["program"] != "hand scan"
             if row["batch"] == batch and "hand scan" in finals and compared:
@@ -404,9 +558,10 @@ def main(args) -> int:
                     finals["hand scan"], finals[row["program"]]
                 )
     diffs = [r["max_abs_diff_scan_vs_jaxatt"] for r in rows if "max_abs_diff_scan_vs_jaxatt" in r]
+    pinned = [r["max_abs_diff_vs_one_process"] for r in rows if "max_abs_diff_vs_one_process" in r]
     failed = sum(r.get("failed_samples", 0) for r in rows)
     ok = all("error" not in r and r["step_cost_batch"]["flops"] > 0 for r in rows)
-    ok &= failed == 0 and all(d <= tol for d in diffs)
+    ok &= failed == 0 and all(d <= tol for d in diffs + pinned)
 
     print_table(rows, peak, measured, args, meta)
     print(
@@ -424,6 +579,11 @@ def main(args) -> int:
     print()
     if diffs:
         print(f"check: max |hand scan - jaxatt| final states: {max(diffs):.3g} (tolerance {tol:g})")
+    if pinned:
+        print(
+            f"check: max |pinned processes - one process| final states: {max(pinned):.3g} "
+            f"(tolerance {tol:g})"
+        )
     print(f"check: jaxatt samples with a non-finite state: {failed}")
     print(f"check: one step loop found in every program: {all('error' not in r for r in rows)}")
     result = {
@@ -441,6 +601,7 @@ def main(args) -> int:
         "figure": None if figure is None else str(figure),
         "checks": {
             "max_abs_diff_scan_vs_jaxatt": diffs,
+            "max_abs_diff_pinned_vs_one_process": pinned,
             "failed_samples": failed,
             "tolerance": tol,
         },
@@ -450,7 +611,7 @@ def main(args) -> int:
 
 def print_table(rows, peak, measured, args, meta) -> None:
     header = [
-        ("program", 24),
+        ("program", 38),
         ("batch", 6),
         ("FLOP/st-st", 10),
         ("written", 7),
@@ -461,6 +622,7 @@ def print_table(rows, peak, measured, args, meta) -> None:
         ("GFLOP/s", 7),
         ("useful", 6),
         ("% peak", 6),
+        ("% useful", 8),
         ("% matmul", 8),
         ("transc. share <=", 16),
     ]
@@ -477,11 +639,12 @@ def print_table(rows, peak, measured, args, meta) -> None:
     print("-" * len(line))
     for r in rows:
         if "error" in r:
-            print(f"{r['program']:>24} | {r['batch']:>6} | {r['error']}")
+            print(f"{r['program']:>38} | {r['batch']:>6} | {r['error']}")
             continue
         frac = r["achieved_fraction_of_derived_peak"]
+        useful = r["useful_fraction_of_derived_peak"]
         cells = [
-            f"{r['program']:>24}",
+            f"{r['program']:>38}",
             f"{r['batch']:>6}",
             f"{r['flops_per_state_step']:>10.4g}",
             f"{r['written_flops_per_state_step']:>7.4g}",
@@ -492,6 +655,7 @@ def print_table(rows, peak, measured, args, meta) -> None:
             f"{r['achieved_flops_per_s'] / 1e9:>7.3g}",
             f"{r['useful_flops_per_s'] / 1e9:>6.3g}",
             f"{'-' if frac is None else f'{100 * frac:.2g}':>6}",
+            f"{'-' if useful is None else f'{100 * useful:.3g}':>8}",
             f"{100 * r['achieved_fraction_of_matmul']:>8.2g}",
             f"{r['transcendental_time_share_upper_bound']:>16.2g}",
         ]
@@ -501,7 +665,9 @@ def print_table(rows, peak, measured, args, meta) -> None:
         "XLA cost analysis of the compiled step loop body (what runs, recomputation in fusions "
         "included), / batch; written = FLOP of the same body before XLA's optimizations (the "
         "program's own operations). ns/st-st from the timed run; GFLOP/s = executed FLOP rate, "
-        "useful = written FLOP rate; % peak and % matmul of the executed rate; transc. share "
+        "useful = written FLOP rate; % peak and % matmul of the executed rate, % useful = "
+        "useful rate / derived peak; N pinned processes = the machine's rates with one process "
+        "per core (N x one process's step cost; module docstring); transc. share "
         "<= = transcendentals x measured ns per pow / ns per state-step (an upper bound of "
         "the time in pow, sqrt, sin, ...)"
     )
@@ -544,6 +710,9 @@ def plot(rows, peak, measured, args, meta, path) -> None:
         "jaxatt monte_carlo": ("D", "C2"),
         "hand scan": ("s", "C1"),
     }
+    for r in rows:
+        if r["program"].endswith("pinned processes"):
+            markers.setdefault(r["program"], ("^", "C3"))
     for name, (marker, color) in markers.items():
         pts = [r for r in rows if r["program"] == name and "error" not in r]
         for r in pts:
@@ -575,4 +744,5 @@ def plot(rows, peak, measured, args, meta, path) -> None:
 
 
 if __name__ == "__main__":
-    sys.exit(main(parse_args()))
+    arguments = parse_args()
+    sys.exit(pinned_worker(arguments) if arguments.pinned_worker else main(arguments))
