@@ -40,11 +40,51 @@ def _record_events(events: dict, flags: dict, t: Array) -> dict:
     return out
 
 
+INNER_LOOP_STEPS = 8
+"""The longest innermost loop the time loops compile to: a longer one runs as a loop over
+chunks of this many iterations (plus a shorter loop for the rest), the same calls in the
+same order, so the results are the same to the bit.
+
+XLA:CPU runs short innermost loops of small kernels much faster per iteration than long ones
+(the mechanism inside XLA's runtime was not traced). Chen 2022 M1, one trajectory, jax 0.10.2,
+2-core Xeon, 2026-12-06: with a save every k steps the step took 3.3 us for k = 2 to 64 and
+9.0-10.5 us for k >= 70; saving every step (a larger body, with outputs) it took 5.7-5.8 us in
+chunks of 4 to 16 steps, 10.5 us in chunks of 32, 12.2 us of 64, 9.4-10.7 us unchunked.
+Batches of 32 to 10 000 samples ran the same either way (benchmarks/README.md, "Short inner
+loops")."""
+
+
+def _scan(body, carry, xs, length: int):
+    """`lax.scan(body, carry, xs)` (`xs` of leading length `length`, or `None`) with loops of at
+    most [`INNER_LOOP_STEPS`][] iterations inside: the same calls in the same order, the
+    outputs stacked as `lax.scan` stacks them."""
+    if length <= INNER_LOOP_STEPS:
+        return lax.scan(body, carry, xs, length=length)
+    chunks, rest = divmod(length, INNER_LOOP_STEPS)
+    split = chunks * INNER_LOOP_STEPS
+
+    def chunked(a):
+        return a[:split].reshape(chunks, INNER_LOOP_STEPS, *a.shape[1:])
+
+    def chunk(carry, x):
+        return lax.scan(body, carry, x, length=INNER_LOOP_STEPS)
+
+    head = None if xs is None else jtu.tree_map(chunked, xs)
+    carry, ys = lax.scan(chunk, carry, head, length=chunks)
+    ys = jtu.tree_map(lambda y: y.reshape(split, *y.shape[2:]), ys)
+    if not rest:
+        return carry, ys
+    tail = None if xs is None else jtu.tree_map(lambda a: a[split:], xs)
+    carry, ys_rest = lax.scan(body, carry, tail, length=rest)
+    return carry, jtu.tree_map(lambda a, b: jnp.concatenate([a, b]), ys, ys_rest)
+
+
 def _scan_intervals(body, carry, n: int, sim: Simulation):
-    """`lax.scan(body, carry, jnp.arange(n))` over the save intervals, stored for reverse mode
-    as `sim.checkpoint` says: each interval under `jax.checkpoint` (`True`), with equinox's
-    online treeverse (`"recursive"`, `equinox.internal.scan(kind="checkpointed")`: at most
-    `sim.checkpoints` stored loop states), or not at all (`False`)."""
+    """`lax.scan(body, carry, jnp.arange(n))` over the save intervals (through [`_scan`][]),
+    stored for reverse mode as `sim.checkpoint` says: each interval under `jax.checkpoint`
+    (`True`), with equinox's online treeverse (`"recursive"`,
+    `equinox.internal.scan(kind="checkpointed")`: at most `sim.checkpoints` stored loop states;
+    one loop over all intervals, not chunked), or not at all (`False`)."""
     if sim.checkpoint == "recursive":
         # The treeverse recomputes an interval from its stored start and differentiates that
         # one call: a `jax.checkpoint` inside would recompute it a second time.
@@ -53,7 +93,7 @@ def _scan_intervals(body, carry, n: int, sim: Simulation):
         )
     if sim.checkpoint:
         body = jax.checkpoint(body)
-    return lax.scan(body, carry, jnp.arange(n))
+    return _scan(body, carry, jnp.arange(n), n)
 
 
 def _scan_body(step, module, carry0, sim: Simulation, *, outputs: bool = False) -> tuple:
@@ -222,7 +262,7 @@ def _run(closed_loop, x0, sim, stream):
     n_intervals = sim.n_steps // every
 
     def save_interval(flat, j):
-        flat, _ = lax.scan(step, flat, j * every + jnp.arange(every))
+        flat, _ = _scan(step, flat, j * every + jnp.arange(every), every)
         y, held, pending, *_ = unflatten(flat)
         i_end = (j + 1) * every
         t_end = time(i_end)
@@ -363,7 +403,7 @@ def _run_streaming(
         if per_interval:
             inner, state = flat
             flat = (inner, keep_initial(i, update(closed_loop, stream, inner, state, i), state))
-        flat, _ = lax.scan(step, flat, i + jnp.arange(every))
+        flat, _ = _scan(step, flat, i + jnp.arange(every), every)
         return flat, None
 
     flat, _ = _scan_intervals(interval, flat0, sim.n_steps // every, sim)
