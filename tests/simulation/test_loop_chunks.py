@@ -28,7 +28,18 @@ def _body(carry, x):
     return (value, count + 1), {"value": value, "pair": (x["a"] * 2, value - x["b"])}
 
 
-@pytest.mark.parametrize("length", [1, 7, 8, 9, 16, 17, 100])
+def test_chunks_divide_the_loop_so_no_remainder_loop_is_compiled():
+    assert _loop._chunk(_loop.INNER_LOOP_STEPS) is None  # short enough already
+    for length in (8, 9, 100, 125, 2000, 30000, 35, 64):
+        chunk = _loop._chunk(length)
+        assert chunk is not None and length % chunk == 0 and 2 <= chunk <= 64, (length, chunk)
+    assert _loop._chunk(2000) == _loop.INNER_LOOP_STEPS
+    assert _loop._chunk(9) == 3 and _loop._chunk(125) == 5
+    for prime in (67, 10007):
+        assert _loop._chunk(prime) is None  # no remainder loop: one loop, one compiled step
+
+
+@pytest.mark.parametrize("length", [1, 7, 8, 9, 16, 17, 100, 125])
 def test_chunked_scan_equals_one_scan_to_the_bit(length):
     k1, k2 = jr.split(jr.key(length))
     xs = {"a": jr.normal(k1, (length, 3)), "b": jr.normal(k2, (length, 3))}
@@ -93,21 +104,23 @@ def test_no_time_loop_runs_more_than_the_inner_steps_at_once(chen_case, save_eve
     for program, x in ((saved, x0), (streamed, x0s)):
         lengths = _innermost_scan_lengths(jax.make_jaxpr(program)(loop, x))
         assert lengths and max(lengths) <= _loop.INNER_LOOP_STEPS, lengths
+        # one copy of the step: no remainder loop
+        assert len(lengths) == 1, lengths
 
 
 def test_chunked_trajectories_equal_the_step_by_step_states(chen_case):
-    # 37 steps: chunks of 8 and a remainder of 5; every step saved, and every 37th.
+    # 36 steps (chunks of 4) against 36 steps saved once; 9 steps (chunks of 3).
     loop, x0s = chen_case
     x0 = jax.tree.map(lambda a: a[0], x0s)
-    every = simulate(loop, x0, 0.0, 37 * DT, dt=DT)
-    last = simulate(loop, x0, 0.0, 37 * DT, dt=DT, save_every=37)
-    assert every.states.plant.q.shape == (38, 4)
-    np.testing.assert_allclose(every.ts, DT * np.arange(38), rtol=0, atol=1e-15)
+    every = simulate(loop, x0, 0.0, 36 * DT, dt=DT)
+    last = simulate(loop, x0, 0.0, 36 * DT, dt=DT, save_every=36)
+    assert every.states.plant.q.shape == (37, 4)
+    np.testing.assert_allclose(every.ts, DT * np.arange(37), rtol=0, atol=1e-15)
     # Different programs (the every-step loop shares the first stage with the saved signals),
     # so agreement to rounding, as tests/simulation/test_streaming.py checks for other counts.
     for a, b in zip(jax.tree.leaves(every.states), jax.tree.leaves(last.states)):
         np.testing.assert_allclose(a[-1], b[-1], rtol=1e-13, atol=1e-15)
-    # a shorter run (one chunk and one step) is the longer run's first steps
+    # a shorter run (other chunks) is the longer run's first steps
     short = simulate(loop, x0, 0.0, 9 * DT, dt=DT)
     for a, b in zip(jax.tree.leaves(every.states), jax.tree.leaves(short.states)):
         np.testing.assert_allclose(a[:10], b, rtol=1e-13, atol=1e-15)

@@ -40,43 +40,54 @@ def _record_events(events: dict, flags: dict, t: Array) -> dict:
     return out
 
 
-INNER_LOOP_STEPS = 8
-"""The longest innermost loop the time loops compile to: a longer one runs as a loop over
-chunks of this many iterations (plus a shorter loop for the rest), the same calls in the
-same order, so the results are the same to the bit.
+INNER_LOOP_STEPS = 4
+"""How many iterations the innermost time loops run at once: a loop of n iterations runs as
+n / k chunks of k, where k is the largest divisor of n not above this (the smallest divisor up
+to 64 if none of 2..4 divides n; a loop of a prime length above 64 runs unchunked, so that no
+remainder loop doubles the compiled step). The same calls in the same order: the results are
+the same to the bit.
 
 XLA:CPU runs short innermost loops of small kernels much faster per iteration than long ones
-(the mechanism inside XLA's runtime was not traced). Chen 2022 M1, one trajectory, jax 0.10.2,
-2-core Xeon, 2026-12-06: with a save every k steps the step took 3.3 us for k = 2 to 64 and
-9.0-10.5 us for k >= 70; saving every step (a larger body, with outputs) it took 5.7-5.8 us in
-chunks of 4 to 16 steps, 10.5 us in chunks of 32, 12.2 us of 64, 9.4-10.7 us unchunked.
+(the mechanism inside XLA's runtime was not traced). One trajectory of Chen 2022 M1 (jax
+0.10.2, 2-core Xeon, 2026-12-06): saving every k steps, the step took 3.3 us for k = 2 to 64
+and 9.0-10.5 us for k >= 70; saving every step (a larger body, with outputs), 5.7 us in
+chunks of 4, 5.8 us of 8 or 16, 10.5 us of 32, 12.2 us of 64, 9.4-10.7 us unchunked. Zhang
+2021's hover, saving every step: 57-58 us in chunks of 4, 105-112 us of 8, 82-96 us unchunked.
 Batches of 32 to 10 000 samples ran the same either way (benchmarks/README.md, "Short inner
 loops")."""
 
+_LONGEST_CHUNK = 64
+
+
+def _chunk(length: int) -> int | None:
+    """The chunk length of a loop of `length` iterations ([`INNER_LOOP_STEPS`][]), or `None`
+    to run it as one loop."""
+    if length <= INNER_LOOP_STEPS:
+        return None
+    divisors = [d for d in range(2, min(length, _LONGEST_CHUNK) + 1) if length % d == 0]
+    short = [d for d in divisors if d <= INNER_LOOP_STEPS]
+    if short:
+        return max(short)
+    return min(divisors) if divisors and min(divisors) < length else None
+
 
 def _scan(body, carry, xs, length: int):
-    """`lax.scan(body, carry, xs)` (`xs` of leading length `length`, or `None`) with loops of at
-    most [`INNER_LOOP_STEPS`][] iterations inside: the same calls in the same order, the
-    outputs stacked as `lax.scan` stacks them."""
-    if length <= INNER_LOOP_STEPS:
+    """`lax.scan(body, carry, xs)` (`xs` of leading length `length`, or `None`) as a loop over
+    chunks of [`_chunk`][]`(length)` iterations: the same calls in the same order, the outputs
+    stacked as `lax.scan` stacks them."""
+    chunk = _chunk(length)
+    if chunk is None:
         return lax.scan(body, carry, xs, length=length)
-    chunks, rest = divmod(length, INNER_LOOP_STEPS)
-    split = chunks * INNER_LOOP_STEPS
+    chunks = length // chunk
 
-    def chunked(a):
-        return a[:split].reshape(chunks, INNER_LOOP_STEPS, *a.shape[1:])
+    def run_chunk(carry, x):
+        return lax.scan(body, carry, x, length=chunk)
 
-    def chunk(carry, x):
-        return lax.scan(body, carry, x, length=INNER_LOOP_STEPS)
-
-    head = None if xs is None else jtu.tree_map(chunked, xs)
-    carry, ys = lax.scan(chunk, carry, head, length=chunks)
-    ys = jtu.tree_map(lambda y: y.reshape(split, *y.shape[2:]), ys)
-    if not rest:
-        return carry, ys
-    tail = None if xs is None else jtu.tree_map(lambda a: a[split:], xs)
-    carry, ys_rest = lax.scan(body, carry, tail, length=rest)
-    return carry, jtu.tree_map(lambda a, b: jnp.concatenate([a, b]), ys, ys_rest)
+    split = (
+        None if xs is None else jtu.tree_map(lambda a: a.reshape(chunks, chunk, *a.shape[1:]), xs)
+    )
+    carry, ys = lax.scan(run_chunk, carry, split, length=chunks)
+    return carry, jtu.tree_map(lambda y: y.reshape(length, *y.shape[2:]), ys)
 
 
 def _scan_intervals(body, carry, n: int, sim: Simulation):
