@@ -14,7 +14,7 @@ from jaxatt.plants import QuaternionState
 from jaxatt.scenarios import chen2022_two_phase_power as chen
 from jaxatt.simulation import _loop
 
-from ..helpers import sub_jaxprs
+from ..helpers import count_primitive, sub_jaxprs
 
 
 DT = 1e-3
@@ -29,12 +29,13 @@ def _body(carry, x):
 
 
 def test_chunks_divide_the_loop_so_no_remainder_loop_is_compiled():
-    assert _loop._chunk(_loop.INNER_LOOP_STEPS) is None  # short enough already
-    for length in (8, 9, 100, 125, 2000, 30000, 35, 64):
+    for short in (1, _loop.INNER_LOOP_STEPS, 9, 64):
+        assert _loop._chunk(short) is None  # short loops run fast as they are
+    for length in (65, 66, 100, 125, 2000, 30000):
         chunk = _loop._chunk(length)
         assert chunk is not None and length % chunk == 0 and 2 <= chunk <= 64, (length, chunk)
     assert _loop._chunk(2000) == _loop.INNER_LOOP_STEPS
-    assert _loop._chunk(9) == 3 and _loop._chunk(125) == 5
+    assert _loop._chunk(66) == 3 and _loop._chunk(125) == 5
     for prime in (67, 10007):
         assert _loop._chunk(prime) is None  # no remainder loop: one loop, one compiled step
 
@@ -89,7 +90,7 @@ def chen_case():
     return chen.build("M1"), x0s
 
 
-@pytest.mark.parametrize("save_every", [1, 3, 100])
+@pytest.mark.parametrize("save_every", [1, 3, 10, 100])
 def test_no_time_loop_runs_more_than_the_inner_steps_at_once(chen_case, save_every):
     loop, x0s = chen_case
     x0 = jax.tree.map(lambda a: a[0], x0s)
@@ -102,25 +103,32 @@ def test_no_time_loop_runs_more_than_the_inner_steps_at_once(chen_case, save_eve
         return mc.monte_carlo(loop, x0s, 0.0, steps * DT, dt=DT, save_every=save_every).metrics
 
     for program, x in ((saved, x0), (streamed, x0s)):
-        lengths = _innermost_scan_lengths(jax.make_jaxpr(program)(loop, x))
-        assert lengths and max(lengths) <= _loop.INNER_LOOP_STEPS, lengths
+        jaxpr = jax.make_jaxpr(program)(loop, x)
+        lengths = _innermost_scan_lengths(jaxpr)
+        # a short save interval's steps are the innermost loop; else chunks
+        bound = save_every if 1 < save_every <= 64 else _loop.INNER_LOOP_STEPS
+        assert lengths and max(lengths) <= bound, lengths
         # one copy of the step: no remainder loop
         assert len(lengths) == 1, lengths
+        if save_every == 10:
+            # 30 intervals of 10 steps: short loops stay as they are, the loop around them too
+            assert lengths == [10] and count_primitive(jaxpr, "scan") == 2
 
 
 def test_chunked_trajectories_equal_the_step_by_step_states(chen_case):
-    # 36 steps (chunks of 4) against 36 steps saved once; 9 steps (chunks of 3).
+    # 72 steps (every step saved: chunks of 4) against 72 steps saved once (chunks of 4) and
+    # 9 steps (one loop).
     loop, x0s = chen_case
     x0 = jax.tree.map(lambda a: a[0], x0s)
-    every = simulate(loop, x0, 0.0, 36 * DT, dt=DT)
-    last = simulate(loop, x0, 0.0, 36 * DT, dt=DT, save_every=36)
-    assert every.states.plant.q.shape == (37, 4)
-    np.testing.assert_allclose(every.ts, DT * np.arange(37), rtol=0, atol=1e-15)
+    every = simulate(loop, x0, 0.0, 72 * DT, dt=DT)
+    last = simulate(loop, x0, 0.0, 72 * DT, dt=DT, save_every=72)
+    assert every.states.plant.q.shape == (73, 4)
+    np.testing.assert_allclose(every.ts, DT * np.arange(73), rtol=0, atol=1e-15)
     # Different programs (the every-step loop shares the first stage with the saved signals),
     # so agreement to rounding, as tests/simulation/test_streaming.py checks for other counts.
     for a, b in zip(jax.tree.leaves(every.states), jax.tree.leaves(last.states)):
         np.testing.assert_allclose(a[-1], b[-1], rtol=1e-13, atol=1e-15)
-    # a shorter run (other chunks) is the longer run's first steps
+    # a shorter run (one loop) is the longer run's first steps
     short = simulate(loop, x0, 0.0, 9 * DT, dt=DT)
     for a, b in zip(jax.tree.leaves(every.states), jax.tree.leaves(short.states)):
         np.testing.assert_allclose(a[:10], b, rtol=1e-13, atol=1e-15)
