@@ -39,6 +39,8 @@ import sys
 import tempfile
 import time
 
+from _baseline import unpack_source
+
 
 HERE = pathlib.Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -245,14 +247,9 @@ def main(args) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         tmp = pathlib.Path(tmp)
         if not args.no_baseline:
-            archive = subprocess.run(
-                ["git", "-C", str(ROOT), "archive", args.baseline_commit, "src"],
-                check=True,
-                capture_output=True,
-            ).stdout
-            subprocess.run(["tar", "-x", "-C", str(tmp)], input=archive, check=True)
+            source = unpack_source(args.baseline_commit, tmp)
             start = time.time()
-            base_info, base = run_worker(args, tmp / "src", tmp / "base.npz")
+            base_info, base = run_worker(args, source, tmp / "base.npz")
             base_info["wall_s"] = time.time() - start
             result["baseline"] = dict(base_info, commit=args.baseline_commit)
         start = time.time()

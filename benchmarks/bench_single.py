@@ -28,22 +28,12 @@ import sys
 import tempfile
 import time
 
+from _baseline import unpack_source
+from bench_scalarize_families import FAMILIES
+
 
 HERE = pathlib.Path(__file__).resolve().parent
 ROOT = HERE.parent
-FAMILIES = (
-    "chen2022_m1",
-    "rigid_body_pd",
-    "yu2022_ftac",
-    "zhang2021_hover",
-    "wu2018",
-    "zhang2017_pd",
-    "zhang2017_pd_alpha",
-    "yue2018",
-    "shi2024",
-    "duan2024",
-    "flyaround",
-)
 
 
 def parse_args(argv=None) -> argparse.Namespace:
@@ -144,13 +134,7 @@ def main(args) -> int:
 
     with tempfile.TemporaryDirectory() as tmp:
         tmp = pathlib.Path(tmp)
-        archive = subprocess.run(
-            ["git", "-C", str(ROOT), "archive", args.baseline_commit, "src"],
-            check=True,
-            capture_output=True,
-        ).stdout
-        subprocess.run(["tar", "-x", "-C", str(tmp)], input=archive, check=True)
-        base = run_worker(args, tmp / "src", tmp / "base.json")
+        base = run_worker(args, unpack_source(args.baseline_commit, tmp), tmp / "base.json")
         new = run_worker(args, ROOT / "src", tmp / "new.json")
     print()
     print(
