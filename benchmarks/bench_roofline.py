@@ -440,7 +440,7 @@ def time_pinned(call: str, batch: int, args) -> dict:
     processes started together) and final states (in batch order) of `call` in
     `--processes` pinned processes."""
     n, cores = args.processes, os.cpu_count() or 1
-    argv = [a for a in sys.argv[1:]]
+    argv = sys.argv[1:]  # the same settings; each worker adds its --pinned-worker
     with tempfile.TemporaryDirectory() as tmp:
         tmp = pathlib.Path(tmp)
         procs, logs = [], []
