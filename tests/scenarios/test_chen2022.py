@@ -285,6 +285,7 @@ def test_the_demo_reports_the_worst_case_not_the_slowest_settled_sample(tmp_path
         "tuning": {
             "gains_before": {"rho": 1.0},
             "gains_after": {"rho": 1.0},
+            "best_step": 2,
             "held_out_before": stats,
             "held_out_after": stats,
             "mean_settling_time_reduction": 0.0,

@@ -256,6 +256,8 @@ def test_resume_needs_a_checkpoint_and_continues_the_weights_that_have_one(tmp_p
         unconstrained=u,
         opt_state=shi2024_tuning._OPTIMIZER.init(u),
         losses=jnp.array([1.0]),
+        gradient_norms=jnp.array([1.0]),
+        best_unconstrained=u,
     )
     tune.save_checkpoint(tmp_path / "checkpoint_w0.eqx", state)
     # Regression: a checkpoint of the second weight from another run was found only after the

@@ -200,6 +200,8 @@ def test_tuning_into_divergence_stops_with_a_clear_error_and_a_good_checkpoint(t
         unconstrained=tune.initial_unconstrained(loop, params),
         opt_state=push.init(tune.initial_unconstrained(loop, params)),
         losses=jnp.full(5, jnp.nan),
+        gradient_norms=jnp.full(5, jnp.nan),
+        best_unconstrained=tune.initial_unconstrained(loop, params),
     )
     saved = tune.load_checkpoint(path, template)
     assert int(saved.step) == 2
@@ -223,6 +225,61 @@ def test_tuning_into_divergence_stops_with_a_clear_error_and_a_good_checkpoint(t
     assert result.losses.shape == (2,) and np.all(np.isfinite(result.losses))
     with pytest.raises(ValueError, match="on_nonfinite"):
         tune.tune(loop, params, objective, x0s, steps=5, progress=False, on_nonfinite="skip")
+
+
+def test_the_result_keeps_the_best_step_and_every_gradient_norm():
+    # Two descending steps, then one that climbs the gradient: the last gains are worse than
+    # those of step 2, which the result must keep (a late gradient that stopped describing the
+    # loss, e.g. in a chattering regime, otherwise costs the run its best gains).
+    loop, x0s, params, objective = _small_problem()
+    climb = optax.sgd(lambda count: jnp.where(count < 2, 0.1, -20.0))
+    run = tune.tune(loop, params, objective, x0s, steps=4, optimizer=climb, progress=False)
+    assert run.losses[3] > run.losses[2] < run.losses[1] < run.losses[0]
+    assert run.best_step == 2
+    two_steps = tune.tune(loop, params, objective, x0s, steps=2, optimizer=climb, progress=False)
+    for name in params:
+        assert np.array_equal(run.best_gains[name], two_steps.gains[name]), name
+        assert not np.array_equal(run.gains[name], run.best_gains[name]), name
+    best_loss, _ = tune.evaluate(run.best_module, objective, x0s)
+    assert float(best_loss) == pytest.approx(run.losses[2], rel=1e-12, abs=0)
+    # The norms are those of the gradients the steps took (the same compiled program).
+    u0 = tune.initial_unconstrained(loop, params)
+    _, grads = tune.loss_and_grad(u0, loop, params, objective, x0s)
+    norm = np.sqrt(sum(float(np.sum(np.square(g))) for g in grads.values()))
+    assert run.gradient_norms.shape == (4,) and run.gradient_norms[0] == norm
+    assert np.all(np.isfinite(run.gradient_norms)) and np.all(run.gradient_norms > 0)
+    # A run whose every step climbs keeps the starting gains.
+    worse = tune.tune(
+        loop, params, objective, x0s, steps=2, optimizer=optax.sgd(-20.0), progress=False
+    )
+    assert worse.losses[1] > worse.losses[0] and worse.best_step == 0
+    for name in params:
+        assert np.array_equal(worse.best_gains[name], worse.initial_gains[name]), name
+
+
+def test_a_checkpoint_of_the_earlier_layout_is_named_as_such(tmp_path):
+    # Checkpoints written before `gradient_norms` and `best_unconstrained` hold a prefix of
+    # today's leaves: resuming one must say so, not read the fingerprint as a history.
+    loop, x0s, params, objective = _small_problem()
+    u = tune.initial_unconstrained(loop, params)
+    optimizer = optax.adam(0.1)
+
+    class Before(eqx.Module):
+        step: jax.Array
+        unconstrained: dict
+        opt_state: object
+        losses: jax.Array
+
+    path = tmp_path / "old.eqx"
+    with open(path, "wb") as f:  # what save_checkpoint wrote then
+        eqx.tree_serialise_leaves(f, jnp.array(3))
+        eqx.tree_serialise_leaves(f, Before(jnp.array(1), u, optimizer.init(u), jnp.ones(3)))
+        np.save(f, np.frombuffer(b"run=abc", np.uint8))
+    with pytest.raises(tune.CheckpointMismatchError, match="written by an earlier jaxatt"):
+        tune.check_checkpoint(loop, params, x0s, path, steps=3, optimizer=optimizer)
+    path.write_bytes(b"not a checkpoint")
+    with pytest.raises(tune.CheckpointMismatchError, match="does not belong"):
+        tune.check_checkpoint(loop, params, x0s, path, steps=3, optimizer=optimizer)
 
 
 def test_interrupted_run_resumes_bit_identically(tmp_path):
@@ -267,6 +324,10 @@ def test_interrupted_run_resumes_bit_identically(tmp_path):
     for name in params:
         assert np.array_equal(resumed.gains[name], full.gains[name]), name  # bit-identical
     assert np.array_equal(resumed.losses, full.losses)
+    assert np.array_equal(resumed.gradient_norms, full.gradient_norms)
+    assert resumed.best_step == full.best_step
+    for name in params:
+        assert np.array_equal(resumed.best_gains[name], full.best_gains[name]), name
     assert full.losses[-1] < full.losses[0]  # the loop does descend
     # A run stopped on purpose (steps=1) continues to a larger total just as exactly.
     short_path = tmp_path / "short.eqx"
@@ -346,6 +407,8 @@ def test_resume_compares_the_closed_loop_objective_and_optimizer_and_names_what_
         unconstrained=unconstrained,
         opt_state=optimizer.init(unconstrained),
         losses=jnp.full(3, jnp.nan),
+        gradient_norms=jnp.full(3, jnp.nan),
+        best_unconstrained=unconstrained,
     )
     path = tmp_path / "run.eqx"
     tune.save_checkpoint(

@@ -167,9 +167,15 @@ def run(
     [`NonFiniteLossError`][jaxatt.tune.NonFiniteLossError] (the checkpoint keeps the last good
     step; no report is written).
 
-    **Returns:** the dictionary written to `tuning.json` (gains before/after, the nearest
-    odd-integer ratios of the tuned exponents, held-out metrics before/after at the tuning
-    step and at the paper's dt = 1e-3 s; the loss history). With
+    The tuned gains reported and validated are those of the step with the lowest training
+    loss (`TuneResult.best_step`; 0 would be the paper's gains), not necessarily the last:
+    in a chattering regime this loop's gradient grows to 1e+20 and more while the loss barely
+    moves, and steps taken on such gradients can undo the run's progress (docs/howto/tuning.md).
+
+    **Returns:** the dictionary written to `tuning.json` (gains before/after, the step they
+    are from, the last step's gains, the nearest odd-integer ratios of the tuned exponents,
+    held-out metrics before/after at the tuning step and at the paper's dt = 1e-3 s; the loss
+    and gradient-norm histories). With
     `validate_at_paper_step=False` the second check is not run: its entry
     `"validation_dt_1e-3"` is `None` (null in the file) and `report.md` says so.
     """
@@ -208,12 +214,15 @@ def run(
             "seed": seed,
         },
         "gains_before": {k: float(v) for k, v in result.initial_gains.items()},
-        "gains_after": {k: float(v) for k, v in result.gains.items()},
+        "gains_after": {k: float(v) for k, v in result.best_gains.items()},
+        "best_step": result.best_step,
+        "gains_last": {k: float(v) for k, v in result.gains.items()},
         "odd_ratios_after": {
-            k: "{}/{}".format(*tuning.nearest_odd_ratio(float(result.gains[k])))
+            k: "{}/{}".format(*tuning.nearest_odd_ratio(float(result.best_gains[k])))
             for k in ("p1/q1", "q2/p2")
         },
         "losses": [float(v) for v in result.losses],
+        "gradient_norms": [float(v) for v in result.gradient_norms],
     }
     cdfs = {}
     checks = ((DT, "validation"), (1e-3, "validation_dt_1e-3"))
@@ -221,7 +230,7 @@ def run(
     for dt, tag in checks if validate_at_paper_step else checks[:1]:
         obj = objective(dt=dt)
         _, before = tuning.evaluate(template, obj, held_out)
-        _, after = tuning.evaluate(result.module, obj, held_out)
+        _, after = tuning.evaluate(result.best_module, obj, held_out)
         report[tag] = {"before": _summary(before), "after": _summary(after)}
         if dt == DT:
             cdfs = {"paper gains": _as_result(before), "tuned": _as_result(after)}
@@ -254,7 +263,9 @@ def _write_report(out: pathlib.Path, report: dict, losses, cdfs) -> None:
         "",
         f"Training batch {report['settings']['training_samples']}, held-out batch "
         f"{report['settings']['validation_samples']} (attitudes within 60 deg, rates up to "
-        f"0.05 rad/s), {report['settings']['steps']} Adam steps, horizon 10 s, RK4.",
+        f"0.05 rad/s), {report['settings']['steps']} Adam steps, horizon 10 s, RK4. The tuned "
+        f"gains are those of step {report['best_step']}, the lowest training loss (the "
+        "gains after that many updates).",
         "",
         "| gain | paper | tuned |",
         "| --- | --- | --- |",

@@ -109,6 +109,7 @@ def run(
         "tuning": {
             "gains_before": tuning["gains_before"],
             "gains_after": tuning["gains_after"],
+            "best_step": tuning["best_step"],
             "held_out_before": tuning["validation"]["before"],
             "held_out_after": tuning["validation"]["after"],
             "mean_settling_time_reduction": tuning["mean_settling_time_reduction"],
@@ -184,7 +185,8 @@ def _write_report(out: pathlib.Path, summary: dict, n: int, tuning: dict) -> Non
         "## 3. Autodiff tuning of M1 (rho, eta, lambda, p1/q1, q2/p2)",
         "",
         f"Trained on {tuning['settings']['training_samples']} samples for "
-        f"{tuning['settings']['steps']} Adam steps; validated on "
+        f"{tuning['settings']['steps']} Adam steps; the gains of step {t['best_step']} (the "
+        "lowest training loss) validated on "
         f"{tuning['settings']['validation_samples']} held-out samples.",
         "",
         "| gain | paper | tuned |",

@@ -48,7 +48,26 @@ class CheckpointMismatchError(ValueError):
 
 
 class TuneState(eqx.Module):
-    """Everything a tuning run needs to continue exactly where it stopped."""
+    """Everything a tuning run needs to continue exactly where it stopped.
+
+    - `step`: steps done; `unconstrained`: the current variables; `opt_state`: the optimizer's.
+    - `losses` / `gradient_norms`: per step (NaN for steps not done), the loss and the global
+      L2 norm of its gradient with respect to the unconstrained variables.
+    - `best_unconstrained`: the variables at which the lowest loss so far was evaluated (the
+      starting ones before any step).
+    """
+
+    step: Int[Array, ""]
+    unconstrained: dict[str, Array]
+    opt_state: PyTree
+    losses: Float[Array, " steps"]
+    gradient_norms: Float[Array, " steps"]
+    best_unconstrained: dict[str, Array]
+
+
+class _TuneStateBefore(eqx.Module):
+    """The layout of checkpoints written before `gradient_norms` and `best_unconstrained`
+    (recognised only to say so)."""
 
     step: Int[Array, ""]
     unconstrained: dict[str, Array]
@@ -115,21 +134,35 @@ def load_checkpoint(
 ) -> TuneState:
     """Read a checkpoint written by [`save_checkpoint`][] into the structure of `like`.
 
-    The loss history is padded (with NaN) or cut to `like`'s length, so a run stopped after
-    `k` steps can continue to any total `steps >= k`. A checkpoint of another problem (other
-    parameters, another optimizer) is a [`CheckpointMismatchError`][] (a `ValueError`) naming
-    the file; so is, when `fingerprint` is given, a checkpoint written with another
-    fingerprint: every part that both fingerprints have is compared (for [`tune`][]'s: another
-    training batch, other starting gains or parameter names of the same shapes; another closed
-    loop, objective or optimizer state), and the error names the parts that differ. A
-    checkpoint written without a fingerprint is not compared.
+    The loss and gradient-norm histories are padded (with NaN) or cut to `like`'s length, so a run
+    stopped after `k` steps can continue to any total `steps >= k`. A checkpoint of another problem
+    (other parameters, another optimizer) is a [`CheckpointMismatchError`][] (a `ValueError`) naming
+    the file, as is one written by a jaxatt from before the gradient norms and the best step were
+    kept; so is, when `fingerprint` is given, a checkpoint written with another fingerprint: every
+    part that both fingerprints have is compared (for [`tune`][]'s: another training batch, other
+    starting gains or parameter names of the same shapes; another closed loop, objective or
+    optimizer state), and the error names the parts that differ. A checkpoint written without a
+    fingerprint is not compared.
     """
     with open(path, "rb") as f:
+        start = None
         try:
             saved_length = int(eqx.tree_deserialise_leaves(f, jnp.array(0)))
-            saved_like = eqx.tree_at(lambda s: s.losses, like, jnp.full(saved_length, jnp.nan))
+            start = f.tell()
+            history = jnp.full(saved_length, jnp.nan)
+            saved_like = eqx.tree_at(
+                lambda s: (s.losses, s.gradient_norms), like, (history, history)
+            )
             state = eqx.tree_deserialise_leaves(f, saved_like)
         except (RuntimeError, ValueError, TypeError) as error:
+            if start is not None and _written_before_best(f, start, like, history):
+                raise CheckpointMismatchError(
+                    f"tune: the checkpoint {str(path)!r} was written by an earlier jaxatt, "
+                    "before checkpoints kept the gradient norms and the best step; it cannot "
+                    "be resumed exactly. Start afresh (resume=False or another checkpoint "
+                    "path).",
+                    path,
+                ) from None
             raise CheckpointMismatchError(
                 f"tune: the checkpoint {str(path)!r} does not belong to this tuning problem "
                 f"(other parameters or optimizer?): {error}",
@@ -157,6 +190,24 @@ def load_checkpoint(
             f"tune: the checkpoint {str(path)!r} has {done} steps done, more than steps={steps}.",
             path,
         )
-    losses = jnp.full(steps, jnp.nan, dtype=like.losses.dtype)
-    losses = losses.at[:done].set(state.losses[:done])
-    return eqx.tree_at(lambda s: s.losses, state, losses)
+
+    def fit(saved, template):
+        return jnp.full(steps, jnp.nan, dtype=template.dtype).at[:done].set(saved[:done])
+
+    return eqx.tree_at(
+        lambda s: (s.losses, s.gradient_norms),
+        state,
+        (fit(state.losses, like.losses), fit(state.gradient_norms, like.gradient_norms)),
+    )
+
+
+def _written_before_best(f, start: int, like: TuneState, history) -> bool:
+    """Whether the file's state (from offset `start`) has the layout of checkpoints written
+    before `TuneState` had `gradient_norms` and `best_unconstrained`."""
+    before = _TuneStateBefore(like.step, like.unconstrained, like.opt_state, history)
+    f.seek(start)
+    try:
+        eqx.tree_deserialise_leaves(f, before)
+    except (RuntimeError, ValueError, TypeError):
+        return False
+    return True

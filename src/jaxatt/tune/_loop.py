@@ -104,13 +104,22 @@ def _failed(aux) -> tuple[int, int] | None:
 class TuneResult:
     """Outcome of [`tune`][].
 
-    - `module`: the template with the tuned gains written in.
+    - `module`: the template with the tuned gains written in (those after the last update).
     - `gains` / `initial_gains`: name -> value (NumPy).
     - `losses`: the loss at each completed step, evaluated before that step's update.
     - `steps`: number of completed steps (including those before a resume).
     - `stopped`: `None` for a run that completed its steps; with `on_nonfinite="stop"`, the
       message of the [`NonFiniteLossError`][] that ended it early (the gains are those of the
       last good step).
+    - `gradient_norms`: the global L2 norm of each step's gradient with respect to the
+      unconstrained variables (what `optax.clip_by_global_norm` compares). A norm many orders
+      above its neighbours says the gradient stopped describing the loss (e.g. a sliding-mode
+      loop whose discrete-time chattering amplifies perturbations: its derivative is exact
+      but grows like the product of the step Jacobians, while the loss itself moves little).
+    - `best_step`, `best_module`, `best_gains`: the step with the lowest loss in `losses`
+      (the first such) and the gains it was evaluated at (those after `best_step` updates;
+      `best_step == 0` is the starting gains). Selecting on the training loss needs no held-out
+      data; the last iterate of a run whose late gradients are uninformative can be worse.
     """
 
     module: PyTree
@@ -119,6 +128,10 @@ class TuneResult:
     losses: np.ndarray
     steps: int
     stopped: str | None = None
+    gradient_norms: np.ndarray | None = None
+    best_step: int | None = None
+    best_module: PyTree = None
+    best_gains: dict[str, np.ndarray] | None = None
 
 
 _DEFAULT_OPTIMIZER = optax.adam(0.05)
@@ -206,6 +219,11 @@ def _update(unconstrained, opt_state, grads, optimizer):
     return optax.apply_updates(unconstrained, updates), opt_state
 
 
+def _global_norm(tree) -> float:
+    """sqrt of the sum of squares of every entry of `tree` (on the host)."""
+    return math.sqrt(sum(float(np.sum(np.square(x))) for x in jtu.tree_leaves(tree)))
+
+
 def _check_inputs(where: str, objective, module, inputs) -> None:
     batch = "the batch" if where == "evaluate" else "the training batch"
     leaves = jtu.tree_leaves(inputs)
@@ -228,14 +246,16 @@ def _check_inputs(where: str, objective, module, inputs) -> None:
 def _fresh_state(
     template: PyTree, parameters: Mapping, steps: int, optimizer: optax.GradientTransformation
 ) -> TuneState:
-    """Step 0 of a run: the starting gains (unconstrained), the optimizer's initial state and a
-    NaN loss history of length `steps`."""
+    """Step 0 of a run: the starting gains (unconstrained, also the best so far), the
+    optimizer's initial state and NaN loss and gradient-norm histories of length `steps`."""
     unconstrained = initial_unconstrained(template, parameters)
     return TuneState(
         step=jnp.array(0),
         unconstrained=unconstrained,
         opt_state=optimizer.init(unconstrained),
         losses=jnp.full(steps, jnp.nan),
+        gradient_norms=jnp.full(steps, jnp.nan),
+        best_unconstrained=unconstrained,
     )
 
 
@@ -424,12 +444,16 @@ def tune(
                     raise error
                 stopped = str(error)
                 break
+            done = np.asarray(state.losses[:k])
+            best = state.unconstrained if k == 0 or loss_value < done.min() else None
             u, opt_state = _update(state.unconstrained, state.opt_state, grads, optimizer)
             state = TuneState(
                 step=jnp.array(k + 1),
                 unconstrained=u,
                 opt_state=opt_state,
                 losses=state.losses.at[k].set(loss),
+                gradient_norms=state.gradient_norms.at[k].set(_global_norm(grads)),
+                best_unconstrained=state.best_unconstrained if best is None else best,
             )
             bar.update()
             bar.set_postfix(loss=f"{loss_value:.4g}")
@@ -443,14 +467,23 @@ def tune(
     finally:
         bar.close()
     write(state)
-    gains = {k: np.asarray(v) for k, v in constrained(state.unconstrained, parameters).items()}
+
+    def gains(unconstrained):
+        return {k: np.asarray(v) for k, v in constrained(unconstrained, parameters).items()}
+
+    done = int(state.step)
+    losses = np.asarray(state.losses[:done])
     return TuneResult(
         module=apply(template, parameters, state.unconstrained),
-        gains=gains,
+        gains=gains(state.unconstrained),
         initial_gains=initial_gains,
-        losses=np.asarray(state.losses[: int(state.step)]),
-        steps=int(state.step),
+        losses=losses,
+        steps=done,
         stopped=stopped,
+        gradient_norms=np.asarray(state.gradient_norms[:done]),
+        best_step=int(np.argmin(losses)) if done else 0,
+        best_module=apply(template, parameters, state.best_unconstrained),
+        best_gains=gains(state.best_unconstrained),
     )
 
 
