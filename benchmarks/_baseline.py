@@ -1,9 +1,12 @@
-"""The library's source at another git revision, for benchmarks that time two versions in
-worker processes (`bench_defaults.py`, `bench_single.py`), each worker importing its own
-version first on `PYTHONPATH`."""
+"""The library's source at another git revision, for benchmarks that run two versions in
+worker processes (`bench_defaults.py`, `bench_single.py`, `bench_tuning_path.py`), each worker
+importing its own version first on `PYTHONPATH`, and the parts those benchmarks share."""
 
+import json
+import os
 import pathlib
 import subprocess
+import sys
 
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -17,3 +20,19 @@ def unpack_source(revision: str, folder: pathlib.Path) -> pathlib.Path:
     ).stdout
     subprocess.run(["tar", "-x", "-C", str(folder)], input=archive, check=True)
     return pathlib.Path(folder) / "src"
+
+
+def run_version(script: pathlib.Path, worker_args: list[str], src: pathlib.Path) -> None:
+    """Run the benchmark `script` in its worker mode (`worker_args`) in a new interpreter with
+    `src` (a library version) first on `PYTHONPATH` and the benchmarks folder second."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(src), str(script.parent)]))
+    print(f"worker: jaxatt from {src}", flush=True)
+    subprocess.run([sys.executable, str(script), *worker_args], env=env, check=True)
+
+
+def write_result(path: str | os.PathLike, result: dict) -> pathlib.Path:
+    """Write a benchmark's `result` as indented JSON to `path` (folders made); returns it."""
+    out = pathlib.Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=1))
+    return out

@@ -34,12 +34,11 @@ import argparse
 import json
 import os
 import pathlib
-import subprocess
 import sys
 import tempfile
 import time
 
-from _baseline import unpack_source
+from _baseline import run_version, unpack_source
 
 
 HERE = pathlib.Path(__file__).resolve().parent
@@ -174,14 +173,18 @@ def run_worker(
 ) -> tuple[dict, dict]:
     import numpy as np
 
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(src), str(HERE)]))
-    cmd = [sys.executable, str(HERE / "bench_defaults.py"), "--worker", str(out)]
-    cmd += ["--batches", *map(str, args.batches), "--horizon", str(args.horizon)]
+    cmd = [
+        "--worker",
+        str(out),
+        "--batches",
+        *map(str, args.batches),
+        "--horizon",
+        str(args.horizon),
+    ]
     cmd += ["--repeat", str(args.repeat), "--max-seconds", str(args.max_seconds)]
     cmd += ["--float32"] if args.float32 else []
     cmd += ["--x0-from", str(x0_from)] if x0_from else []
-    print(f"worker: jaxatt from {src}", flush=True)
-    subprocess.run(cmd, env=env, check=True)
+    run_version(HERE / "bench_defaults.py", cmd, src)
     data = np.load(out)
     return json.loads(str(data["info"])), {k: data[k] for k in data.files if k != "info"}
 

@@ -23,12 +23,11 @@ import argparse
 import json
 import os
 import pathlib
-import subprocess
 import sys
 import tempfile
 import time
 
-from _baseline import unpack_source
+from _baseline import run_version, unpack_source, write_result
 from bench_scalarize_families import FAMILIES
 
 
@@ -116,12 +115,9 @@ def worker(args) -> None:
 
 
 def run_worker(args, src: pathlib.Path, out: pathlib.Path) -> dict:
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(src), str(HERE)]))
-    cmd = [sys.executable, str(HERE / "bench_single.py"), "--worker", str(out)]
-    cmd += ["--families", *args.families, "--steps", str(args.steps)]
+    cmd = ["--worker", str(out), "--families", *args.families, "--steps", str(args.steps)]
     cmd += ["--save-every", *map(str, args.save_every), "--repeat", str(args.repeat)]
-    print(f"worker: jaxatt from {src}", flush=True)
-    subprocess.run(cmd, env=env, check=True)
+    run_version(HERE / "bench_single.py", cmd, src)
     return json.loads(out.read_text())
 
 
@@ -177,9 +173,7 @@ def main(args) -> int:
         "rows": rows,
         "ok": ok,
     }
-    out = pathlib.Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=1))
+    out = write_result(args.out, result)
     print(f"{'PASSED' if ok else 'FAILED'}: final states within {args.rtol:g}, same status")
     print(f"wrote {out}")
     return 0 if ok else 1

@@ -27,12 +27,11 @@ import argparse
 import json
 import os
 import pathlib
-import subprocess
 import sys
 import tempfile
 import time
 
-from _baseline import unpack_source
+from _baseline import run_version, unpack_source, write_result
 
 
 HERE = pathlib.Path(__file__).resolve().parent
@@ -110,12 +109,9 @@ def worker(args) -> None:
 
 
 def run_worker(args, src: pathlib.Path, out: pathlib.Path) -> dict:
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(src), str(HERE)]))
-    cmd = [sys.executable, str(HERE / "bench_tuning_path.py"), "--worker", str(out)]
-    cmd += ["--samples", str(args.samples), "--steps", str(args.steps)]
+    cmd = ["--worker", str(out), "--samples", str(args.samples), "--steps", str(args.steps)]
     cmd += ["--held-out", str(args.held_out)]
-    print(f"worker: jaxatt from {src}", flush=True)
-    subprocess.run(cmd, env=env, check=True)
+    run_version(HERE / "bench_tuning_path.py", cmd, src)
     return json.loads(out.read_text())
 
 
@@ -162,10 +158,7 @@ def main(args) -> int:
         "baseline": base,
         "new": new,
     }
-    out = pathlib.Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=1))
-    print(f"written {out}")
+    print(f"written {write_result(args.out, result)}")
     return 0
 
 

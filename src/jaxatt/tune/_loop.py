@@ -119,7 +119,9 @@ class TuneResult:
     - `best_step`, `best_module`, `best_gains`: the step with the lowest loss in `losses`
       (the first such) and the gains it was evaluated at (those after `best_step` updates;
       `best_step == 0` is the starting gains). Selecting on the training loss needs no held-out
-      data; the last iterate of a run whose late gradients are uninformative can be worse.
+      data; the last iterate of a run whose late gradients are uninformative can be worse. The
+      gains after the last update (`gains`) are not a candidate, since no step evaluated them:
+      compare them with `evaluate` (or run one more step) where they may be the better.
     """
 
     module: PyTree
