@@ -7,6 +7,8 @@ import os
 import pathlib
 import subprocess
 import sys
+import tempfile
+from collections.abc import Callable
 
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -36,3 +38,13 @@ def write_result(path: str | os.PathLike, result: dict) -> pathlib.Path:
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(result, indent=1))
     return out
+
+
+def run_both(run_worker: Callable, args, revision: str) -> tuple[dict, dict]:
+    """`run_worker(args, src, out)` for the library of `revision` (unpacked into a temporary
+    folder), then for this checkout's `src/`: `(baseline, new)`, each what it returned."""
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = pathlib.Path(tmp)
+        base = run_worker(args, unpack_source(revision, tmp), tmp / "base.json")
+        new = run_worker(args, ROOT / "src", tmp / "new.json")
+    return base, new

@@ -24,15 +24,13 @@ import json
 import os
 import pathlib
 import sys
-import tempfile
 import time
 
-from _baseline import run_version, unpack_source, write_result
+from _baseline import run_both, run_version, write_result
 from bench_scalarize_families import FAMILIES
 
 
 HERE = pathlib.Path(__file__).resolve().parent
-ROOT = HERE.parent
 
 
 def parse_args(argv=None) -> argparse.Namespace:
@@ -128,10 +126,7 @@ def main(args) -> int:
         return 0
     import numpy as np
 
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = pathlib.Path(tmp)
-        base = run_worker(args, unpack_source(args.baseline_commit, tmp), tmp / "base.json")
-        new = run_worker(args, ROOT / "src", tmp / "new.json")
+    base, new = run_both(run_worker, args, args.baseline_commit)
     print()
     print(
         f"One trajectory, {args.steps} steps, float64; baseline {args.baseline_commit} against "

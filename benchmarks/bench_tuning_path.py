@@ -28,14 +28,12 @@ import json
 import os
 import pathlib
 import sys
-import tempfile
 import time
 
-from _baseline import run_version, unpack_source, write_result
+from _baseline import run_both, run_version, write_result
 
 
 HERE = pathlib.Path(__file__).resolve().parent
-ROOT = HERE.parent
 
 
 def parse_args(argv=None) -> argparse.Namespace:
@@ -126,10 +124,7 @@ def main(args) -> int:
     if args.worker:
         worker(args)
         return 0
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = pathlib.Path(tmp)
-        base = run_worker(args, unpack_source(args.baseline_commit, tmp), tmp / "base.json")
-        new = run_worker(args, ROOT / "src", tmp / "new.json")
+    base, new = run_both(run_worker, args, args.baseline_commit)
     g_base, g_new = base["gradient_at_paper_gains"], new["gradient_at_paper_gains"]
     gradient_difference = max(abs(g_new[k] - g_base[k]) / abs(g_base[k]) for k in g_base)
     print(f"\nGradient at the paper's gains: largest relative difference {gradient_difference:.1e}")
