@@ -65,11 +65,11 @@ def _chunk(length: int) -> int | None:
     to run it as one loop."""
     if length <= _LONGEST_CHUNK:
         return None
-    divisors = [d for d in range(2, min(length, _LONGEST_CHUNK) + 1) if length % d == 0]
+    divisors = [d for d in range(2, _LONGEST_CHUNK + 1) if length % d == 0]
     short = [d for d in divisors if d <= INNER_LOOP_STEPS]
     if short:
         return max(short)
-    return min(divisors) if divisors and min(divisors) < length else None
+    return min(divisors) if divisors else None
 
 
 def _scan(body, carry, xs, length: int):

@@ -408,9 +408,11 @@ def tune(
         optimizer = _DEFAULT_OPTIMIZER
 
     state = _fresh_state(template, parameters, steps, optimizer)
-    initial_gains = {
-        k: np.asarray(v) for k, v in constrained(state.unconstrained, parameters).items()
-    }
+
+    def gains(unconstrained):
+        return {k: np.asarray(v) for k, v in constrained(unconstrained, parameters).items()}
+
+    initial_gains = gains(state.unconstrained)
     fingerprint = (
         None
         if checkpoint is None
@@ -446,8 +448,7 @@ def tune(
                     raise error
                 stopped = str(error)
                 break
-            done = np.asarray(state.losses[:k])
-            best = state.unconstrained if k == 0 or loss_value < done.min() else None
+            improved = k == 0 or loss_value < np.min(np.asarray(state.losses[:k]))
             u, opt_state = _update(state.unconstrained, state.opt_state, grads, optimizer)
             state = TuneState(
                 step=jnp.array(k + 1),
@@ -455,7 +456,7 @@ def tune(
                 opt_state=opt_state,
                 losses=state.losses.at[k].set(loss),
                 gradient_norms=state.gradient_norms.at[k].set(_global_norm(grads)),
-                best_unconstrained=state.best_unconstrained if best is None else best,
+                best_unconstrained=state.unconstrained if improved else state.best_unconstrained,
             )
             bar.update()
             bar.set_postfix(loss=f"{loss_value:.4g}")
@@ -469,10 +470,6 @@ def tune(
     finally:
         bar.close()
     write(state)
-
-    def gains(unconstrained):
-        return {k: np.asarray(v) for k, v in constrained(unconstrained, parameters).items()}
-
     done = int(state.step)
     losses = np.asarray(state.losses[:done])
     return TuneResult(
