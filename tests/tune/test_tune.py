@@ -257,6 +257,55 @@ def test_the_result_keeps_the_best_step_and_every_gradient_norm():
         assert np.array_equal(worse.best_gains[name], worse.initial_gains[name]), name
 
 
+def _recording(seen: list, rate: float = 0.05) -> optax.GradientTransformationExtraArgs:
+    """Gradient descent that hands the host, at every update, the `value` it was given and
+    `value_fn` evaluated at the same gains (what optax's line searches read)."""
+
+    def update(grads, state, params, *, value, grad, value_fn, **extra):
+        del extra
+        jax.debug.callback(
+            lambda *v: seen.append(tuple(float(x) for x in v)), value, value_fn(params)
+        )
+        assert grad is grads
+        return jax.tree.map(lambda g: -rate * g, grads), state
+
+    return optax.GradientTransformationExtraArgs(lambda params: optax.EmptyState(), update)
+
+
+def test_an_optimizer_with_extra_arguments_gets_the_loss_and_the_loss_function():
+    # Regression: the update passed only (grads, state, params), so optax's line searches
+    # (optax.lbfgs and every scale_by_*_linesearch) failed inside optax with "missing 3
+    # required keyword-only arguments: 'value', 'grad', and 'value_fn'".
+    loop, x0s, params, objective = _small_problem()
+    seen, losses = [], []
+    tune.tune(
+        loop,
+        params,
+        objective,
+        x0s,
+        steps=2,
+        optimizer=_recording(seen),
+        progress=False,
+        callback=lambda step, loss, aux: losses.append(loss),
+    )
+    # `value` is the step's loss; `value_fn` is that loss as a function of the unconstrained
+    # gains: the closed loop over the training batch, in the same program's arithmetic.
+    assert [v for v, _ in seen] == losses
+    for value, again in seen:
+        assert again == pytest.approx(value, rel=1e-12, abs=0)
+    # optax.lbfgs with a backtracking (Armijo) line search: each accepted point lowers the
+    # loss, and the line search's value at it is the next step's loss.
+    lbfgs = optax.lbfgs(
+        linesearch=optax.scale_by_backtracking_linesearch(max_backtracking_steps=15)
+    )
+    run = tune.tune(loop, params, objective, x0s, steps=3, optimizer=lbfgs, progress=False)
+    assert np.all(np.diff(run.losses) < 0) and run.best_step == 2
+    adam = tune.tune(
+        loop, params, objective, x0s, steps=3, optimizer=optax.adam(0.1), progress=False
+    )
+    assert run.losses[-1] < adam.losses[-1]
+
+
 def test_a_checkpoint_of_the_earlier_layout_is_named_as_such(tmp_path):
     # Checkpoints written before `gradient_norms` and `best_unconstrained` hold a prefix of
     # today's leaves: resuming one must say so, not read the fingerprint as a history.

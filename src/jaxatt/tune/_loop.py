@@ -215,9 +215,25 @@ def _loss_and_grad_forward(unconstrained, template, parameters, objective, input
     return (loss, aux), grads
 
 
-@eqx.filter_jit
-def _update(unconstrained, opt_state, grads, optimizer):
-    updates, opt_state = optimizer.update(grads, opt_state, unconstrained)
+def _update(
+    unconstrained, opt_state, grads, loss, template, parameters, objective, inputs, optimizer
+):
+    """One optimizer update. An `optax.GradientTransformationExtraArgs` (what `optax.chain`,
+    `optax.adam` and `optax.lbfgs` build) also receives `value` (the loss at `unconstrained`),
+    `grad` and `value_fn` (the loss as a function of the unconstrained gains: the closed loop
+    over the training batch), as optax's line searches need; transformations that take no
+    extra arguments ignore them, and a program that never calls `value_fn` holds no closed
+    loop."""
+
+    def value_fn(u):
+        return objective(apply(template, parameters, u), inputs)[0]
+
+    if isinstance(optimizer, optax.GradientTransformationExtraArgs):
+        updates, opt_state = optimizer.update(
+            grads, opt_state, unconstrained, value=loss, grad=grads, value_fn=value_fn
+        )
+    else:
+        updates, opt_state = optimizer.update(grads, opt_state, unconstrained)
     return optax.apply_updates(unconstrained, updates), opt_state
 
 
@@ -326,7 +342,17 @@ def tune(
     - `objective`: `(module, inputs) -> (loss, aux)`, e.g. a [`SettlingObjective`][].
     - `inputs`: the training batch (e.g. stacked initial states), fixed for the whole run.
     - `steps`: total number of optimizer steps (a resumed run continues up to it).
-    - `optimizer`: an optax transformation; default `optax.adam(0.05)`.
+    - `optimizer`: an optax transformation; default `optax.adam(0.05)`. Transformations that
+      take extra arguments get `value` (the step's loss), `grad` and `value_fn` (the loss as a
+      function of the unconstrained gains), so optax's line searches work as they do in a
+      hand-written optax loop: `optax.lbfgs()` (zoom line search, strong Wolfe conditions),
+      `optax.lbfgs(linesearch=optax.scale_by_backtracking_linesearch(max_backtracking_steps=15))`
+      (Armijo, values only), or any `optax.chain(..., optax.scale_by_backtracking_linesearch(
+      max_backtracking_steps=15))`. The
+      training batch is fixed, so the loss is a deterministic function of the gains, which is
+      what a line search needs. When a line search fails (no trial step meets its condition)
+      optax still applies its last trial step, which can raise the loss; `best_step` keeps
+      the best gains either way (docs/howto/tuning.md measures both optimizers).
     - `checkpoint`: file for `eqx.tree_serialise_leaves` checkpoints, written every
       `checkpoint_every` steps, at the end, and when interrupted (Ctrl-C).
     - `resume`: continue from `checkpoint`, which must exist: a missing file is a
@@ -363,7 +389,9 @@ def tune(
     initial states, `steps > 0`, a checkpoint to resume from.
 
     Each step runs two compiled programs: [`loss_and_grad`][] (the closed loop and its reverse
-    pass, nearly all the compile time) and the optimizer update (small). Parameters are
+    pass, nearly all the compile time) and the optimizer update (small; with a line search it
+    holds the closed loop too, run once per trial step, and the zoom line search's gradient of
+    it: about as long to compile as the first). Parameters are
     identified by their paths (strings), so equal tuning problems share the first program
     whatever objects describe them; the optimizer is a static argument of the second,
     compared by identity (optax transformations are closures): reuse one object across runs
@@ -406,6 +434,7 @@ def tune(
     )
     if optimizer is None:
         optimizer = _DEFAULT_OPTIMIZER
+    update = _program(_update, objective, inputs)
 
     state = _fresh_state(template, parameters, steps, optimizer)
 
@@ -449,7 +478,17 @@ def tune(
                 stopped = str(error)
                 break
             improved = k == 0 or loss_value < np.min(np.asarray(state.losses[:k]))
-            u, opt_state = _update(state.unconstrained, state.opt_state, grads, optimizer)
+            u, opt_state = update(
+                state.unconstrained,
+                state.opt_state,
+                grads,
+                loss,
+                template,
+                parameters,
+                objective,
+                inputs,
+                optimizer,
+            )
             state = TuneState(
                 step=jnp.array(k + 1),
                 unconstrained=u,
