@@ -28,6 +28,7 @@ import tempfile
 import time
 
 from _baseline import write_result
+from _notebook02 import add_batch_arguments, notebook02
 
 
 HERE = pathlib.Path(__file__).resolve().parent
@@ -35,9 +36,8 @@ HERE = pathlib.Path(__file__).resolve().parent
 
 def parse_args(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--samples", type=int, default=256, help="training samples (notebook: 256)")
+    add_batch_arguments(p)
     p.add_argument("--steps", type=int, default=30, help="steps per run (notebook: 30)")
-    p.add_argument("--held-out", type=int, default=256, help="held-out samples (notebook: 256)")
     p.add_argument("--out", default=str(HERE / "results" / "tuning_optimizers.json"))
     args = p.parse_args(argv)
     if min(args.samples, args.steps, args.held_out) < 2:
@@ -47,21 +47,12 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 def main(args) -> int:
     import jax
-
-    jax.config.update("jax_enable_x64", True)
-    import jax.random as jr
     import numpy as np
     import optax
 
     from jaxatt import tune
-    from jaxatt.scenarios import chen2022_tuning as problem, chen2022_two_phase_power as chen
 
-    template = chen.build("M1")
-    params = problem.parameters()
-    objective = problem.objective()
-    train_key, held_out_key = jr.split(jr.key(0))  # the notebook's keys
-    train = problem.initial_states(train_key, args.samples)
-    held_out = problem.initial_states(held_out_key, args.held_out)
+    problem, template, params, objective, train, held_out = notebook02(args.samples, args.held_out)
     tune.loss_and_grad(
         tune.initial_unconstrained(template, params), template, params, objective, train
     )

@@ -31,6 +31,7 @@ import sys
 import time
 
 from _baseline import run_both, run_version, write_result
+from _notebook02 import add_batch_arguments, notebook02
 
 
 HERE = pathlib.Path(__file__).resolve().parent
@@ -38,9 +39,8 @@ HERE = pathlib.Path(__file__).resolve().parent
 
 def parse_args(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--samples", type=int, default=256, help="training samples (notebook: 256)")
+    add_batch_arguments(p)
     p.add_argument("--steps", type=int, default=30, help="Adam steps (notebook: 30)")
-    p.add_argument("--held-out", type=int, default=256, help="held-out samples (notebook: 256)")
     p.add_argument("--baseline-commit", default="561edba", help="git revision to compare to")
     p.add_argument("--out", default=str(HERE / "results" / "tuning_path.json"))
     p.add_argument("--worker", help=argparse.SUPPRESS)
@@ -52,21 +52,12 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 def worker(args) -> None:
     import jax
-
-    jax.config.update("jax_enable_x64", True)
-    import jax.random as jr
     import numpy as np
 
     import jaxatt
     from jaxatt import tune
-    from jaxatt.scenarios import chen2022_tuning as problem, chen2022_two_phase_power as chen
 
-    template = chen.build("M1")
-    params = problem.parameters()
-    objective = problem.objective()
-    train_key, held_out_key = jr.split(jr.key(0))  # the notebook's keys
-    train = problem.initial_states(train_key, args.samples)
-    held_out = problem.initial_states(held_out_key, args.held_out)
+    problem, template, params, objective, train, held_out = notebook02(args.samples, args.held_out)
     u0 = tune.initial_unconstrained(template, params)
     (_, _), grads = tune.loss_and_grad(u0, template, params, objective, train)
     losses = []
