@@ -375,7 +375,10 @@ def tune(
       report what it reached, e.g. when a step would push a sample across a constraint).
     - `mode`: `"reverse"` (default) or `"forward"` sensitivities (see [`loss_and_grad`][]):
       forward mode wins for a handful of scalar gains on long horizons, where reverse mode's
-      stored trajectory dominates memory (measured in `benchmarks/README.md`).
+      stored trajectory dominates memory (measured in `benchmarks/README.md`). `mode` is how
+      the step's gradient is computed; optax's zoom line search (`optax.lbfgs()`'s default)
+      differentiates `value_fn` at its trial points itself, in reverse mode, whatever `mode`
+      (its backtracking line search evaluates values only).
 
     **Returns:** a [`TuneResult`][].
 
