@@ -293,8 +293,8 @@ def test_an_optimizer_with_extra_arguments_gets_the_loss_and_the_loss_function()
     assert [v for v, _ in seen] == losses
     for value, again in seen:
         assert again == pytest.approx(value, rel=1e-12, abs=0)
-    # optax.lbfgs with a backtracking (Armijo) line search: each accepted point lowers the
-    # loss, and the line search's value at it is the next step's loss.
+    # optax.lbfgs with a backtracking (Armijo) line search runs through `tune` and lowers the
+    # loss at every step of this short run (further than Adam in as many steps).
     lbfgs = optax.lbfgs(
         linesearch=optax.scale_by_backtracking_linesearch(max_backtracking_steps=15)
     )

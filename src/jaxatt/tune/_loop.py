@@ -348,11 +348,11 @@ def tune(
       hand-written optax loop: `optax.lbfgs()` (zoom line search, strong Wolfe conditions),
       `optax.lbfgs(linesearch=optax.scale_by_backtracking_linesearch(max_backtracking_steps=15))`
       (Armijo, values only), or any `optax.chain(..., optax.scale_by_backtracking_linesearch(
-      max_backtracking_steps=15))`. The
-      training batch is fixed, so the loss is a deterministic function of the gains, which is
-      what a line search needs. When a line search fails (no trial step meets its condition)
-      optax still applies its last trial step, which can raise the loss; `best_step` keeps
-      the best gains either way (docs/howto/tuning.md measures both optimizers).
+      max_backtracking_steps=15))`. The training batch is fixed, so the loss is a
+      deterministic function of the gains, which is what a line search needs. When a line
+      search fails (no trial step meets its condition) optax still applies its last trial
+      step, which can raise the loss; `best_step` keeps the best gains either way
+      (docs/howto/tuning.md measures both optimizers).
     - `checkpoint`: file for `eqx.tree_serialise_leaves` checkpoints, written every
       `checkpoint_every` steps, at the end, and when interrupted (Ctrl-C).
     - `resume`: continue from `checkpoint`, which must exist: a missing file is a
