@@ -78,7 +78,10 @@ notebook), so tuning could not start from the paper's gains over the larger box.
 LEARNING_RATE = {"ppc": 0.05, "finite_time_ppf": 0.02}
 """Adam's step size per problem. The finite-time problem's first run at 0.05 shortened the
 position and attitude horizons to 206 s and 181 s within 12 steps, where one training sample
-left its (now faster shrinking) envelope; at 0.02 the steps are smaller."""
+left its (now faster shrinking) envelope; at 0.02 the steps are smaller. The optimizer stays
+Adam: on the PPC problem `optax.lbfgs` (either line search) reached gains that fail a held-out
+sample or command 36 times the force bound on one
+(`benchmarks/bench_tuning_optimizers_zhang2021.py`, docs/howto/tuning.md)."""
 
 
 def template(problem: str = "ppc") -> ClosedLoop:
