@@ -140,10 +140,8 @@ def main(args) -> int:
             f"(training loss {loss:.1f}), held-out mean objective time "
             f"{summary['mean_objective_time']} s (paper's gains {paper['mean_objective_time']}"
             f" s; reduction {'n/a' if reduction is None else f'{100 * reduction:.1f} %'}), "
-            f"violations {summary['violations']}, max peak force {summary['max_peak_force']} N "
-            f"(bound {zt.FORCE_BOUND}), torque {summary['max_peak_torque']} N m (bound "
-            f"{zt.TORQUE_BOUND}), envelope usage {summary['max_envelope_usage']} (bound "
-            f"{zt.USAGE_BOUND}); stopped: {tuned.stopped}",
+            f"violations {summary['violations']}, above the penalties' bounds: "
+            f"{zt.held_out_over_bounds(summary) or 'none'}; stopped: {tuned.stopped}",
             flush=True,
         )
         # written after every run, so that a run cut short keeps the ones before it
