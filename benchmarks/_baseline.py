@@ -32,6 +32,20 @@ def run_version(script: pathlib.Path, worker_args: list[str], src: pathlib.Path)
     subprocess.run([sys.executable, str(script), *worker_args], env=env, check=True)
 
 
+def tuning_provenance() -> dict:
+    """What a tuning benchmark's result starts with: its command line, the jax and optax
+    versions and the load average when it was written."""
+    import jax
+    import optax
+
+    return {
+        "command": " ".join(sys.argv),
+        "jax": jax.__version__,
+        "optax": optax.__version__,
+        "load_average": os.getloadavg(),
+    }
+
+
 def write_result(path: str | os.PathLike, result: dict) -> pathlib.Path:
     """Write a benchmark's `result` as indented JSON to `path` (folders made); returns it."""
     out = pathlib.Path(path)

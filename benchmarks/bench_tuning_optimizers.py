@@ -21,13 +21,12 @@ Usage (from the repository root):
 """
 
 import argparse
-import os
 import pathlib
 import sys
 import tempfile
 import time
 
-from _baseline import write_result
+from _baseline import tuning_provenance, write_result
 from _notebook02 import add_batch_arguments, notebook02
 
 
@@ -46,7 +45,6 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 
 def main(args) -> int:
-    import jax
     import numpy as np
     import optax
 
@@ -147,11 +145,7 @@ def main(args) -> int:
             f"{100 * reduction:.1f} % under the paper's; {run['held_out_best']}; gains "
             f"{ {k: round(v, 4) for k, v in run['best_gains'].items()} }"
         )
-    result = {
-        "command": " ".join(sys.argv),
-        "jax": jax.__version__,
-        "optax": optax.__version__,
-        "load_average": os.getloadavg(),
+    result = tuning_provenance() | {
         "samples": args.samples,
         "held_out": args.held_out,
         "steps": args.steps,

@@ -24,12 +24,11 @@ Usage (from the repository root; the default sizes took 33 min on the 2-core mac
 """
 
 import argparse
-import os
 import pathlib
 import sys
 import time
 
-from _baseline import write_result
+from _baseline import tuning_provenance, write_result
 
 
 HERE = pathlib.Path(__file__).resolve().parent
@@ -93,11 +92,7 @@ def main(args) -> int:
         ),
         "lbfgs-zoom": (optax.lbfgs(), args.lbfgs_steps),
     }
-    result = {
-        "command": " ".join(sys.argv),
-        "jax": jax.__version__,
-        "optax": optax.__version__,
-        "load_average": os.getloadavg(),
+    result = tuning_provenance() | {
         "samples": args.samples,
         "held_out": args.held_out,
         "horizon": objective.simulation.t1,
