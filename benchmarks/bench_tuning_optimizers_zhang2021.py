@@ -80,7 +80,7 @@ def main(args) -> int:
     )
     build_seconds = time.perf_counter() - start
     _, before = tune.evaluate(template, objective, held_out)
-    paper = zt._summary(before)
+    paper = zt.held_out_summary(before)
 
     optimizers = {
         "adam": (optax.adam(zt.LEARNING_RATE[problem]), args.steps),
@@ -116,7 +116,7 @@ def main(args) -> int:
         )
         seconds = time.perf_counter() - start
         _, best = tune.evaluate(tuned.best_module, objective, held_out)
-        summary = zt._summary(best)
+        summary = zt.held_out_summary(best)
         runs[name] = {
             "steps": tuned.steps,
             "seconds": seconds,

@@ -145,11 +145,12 @@ def initial_states(key: jax.Array, n: int, problem: str = "ppc") -> RelativePose
     return jax.vmap(lambda r, s, v, w: hover.initial_state(r, v, s, w))(*draws)
 
 
-def _summary(metrics: dict) -> dict:
-    """Held-out statistics. A sample that failed (an envelope violated, a non-finite state) is
-    counted in `violations` and makes the objective time and every settle time not finite
-    (written `None`); per-group settled fractions say how many settled; peaks and envelope
-    usage are over the successful samples."""
+def held_out_summary(metrics: dict) -> dict:
+    """Held-out statistics of `metrics` (the per-sample metrics `tune.evaluate` returns for a
+    held-out batch), as the report's `validation` holds them. A sample that failed (an
+    envelope violated, a non-finite state) is counted in `violations` and makes the objective
+    time and every settle time not finite (written `None`); per-group settled fractions say
+    how many settled; peaks and envelope usage are over the successful samples."""
     out = {}
     successful = np.asarray(metrics["status"]) == 0
 
@@ -252,7 +253,7 @@ def run(
         },
         "gains_before": {k: np.asarray(v).tolist() for k, v in result.initial_gains.items()},
         "gains_after": {k: np.asarray(v).tolist() for k, v in result.gains.items()},
-        "validation": {"before": _summary(before), "after": _summary(after)},
+        "validation": {"before": held_out_summary(before), "after": held_out_summary(after)},
         "losses": [float(v) for v in result.losses],
         "stopped": result.stopped,
     }
@@ -310,7 +311,7 @@ def run(
 
 
 def held_out_over_bounds(summary: dict) -> list[str]:
-    """The held-out peaks of `summary` (a `validation` entry of the report) above the bounds
+    """The held-out peaks of `summary` (a [`held_out_summary`][] of the report) above the bounds
     the training penalties hold (force `FORCE_BOUND` N, torque `TORQUE_BOUND` N m, envelope
     usage `USAGE_BOUND`), as `"max_peak_force 287.2 N (bound 8 N)"`; empty when none is."""
     bounds = (
