@@ -126,6 +126,27 @@ def test_applied_gains_keep_the_template_types_so_nothing_recompiles():
         assert jax.typeof(p.where(traced)) == jax.typeof(p.where(loop)), name
 
 
+def test_with_gains_sets_reported_gains_and_refuses_unknown_names_and_shapes():
+    """`with_gains` sets constrained values (a report's `gains_after`: lists), in the fields'
+    dtypes; `apply` is it after the transforms. A misspelt name or a value of another shape
+    than its field is a ValueError naming it, not a silently reshaped module."""
+    loop, _, params, _ = _small_problem()
+    u = {k: v + 0.1 for k, v in tune.initial_unconstrained(loop, params).items()}
+    gains = {k: np.asarray(v).tolist() for k, v in tune.constrained(u, params).items()}
+    set_from_lists = tune.with_gains(loop, params, gains)
+    applied = tune.apply(loop, params, u)
+    for name, p in params.items():
+        assert jax.typeof(p.where(set_from_lists)) == jax.typeof(p.where(loop)), name
+        np.testing.assert_array_equal(p.where(set_from_lists), p.where(applied))
+    name = next(iter(params))
+    assert tune.with_gains(loop, params, {}) is loop
+    with pytest.raises(ValueError, match="'rh0'.*not one of the parameters"):
+        tune.with_gains(loop, params, {"rh0": 1.0})
+    wrong = np.ones(np.shape(params[name].where(loop)) + (2,))
+    with pytest.raises(ValueError, match=f"gain '{name}' must have the shape"):
+        tune.with_gains(loop, params, {name: wrong})
+
+
 @pytest.mark.parametrize("tolerance, settled", [(0.2, True), (1e-2, False)])
 def test_tuning_gradient_matches_central_differences(tolerance, settled):
     """`tune.loss_and_grad` (the program every tuning step runs) against central differences

@@ -47,6 +47,7 @@ from ._parameters import (
     check_parameters as check_parameters,
     constrained as constrained,
     initial_unconstrained as initial_unconstrained,
+    with_gains as with_gains,
 )
 from ._transforms import (
     AbstractTransform as AbstractTransform,

@@ -1,12 +1,12 @@
 """Which fields of a module are tuned, and how they are constrained."""
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, PyTree
+from jaxtyping import Array, ArrayLike, PyTree
 
 from .._paths import get_path, parse_path, path_selector
 from ._transforms import AbstractTransform
@@ -103,12 +103,32 @@ def constrained(unconstrained: dict[str, Array], parameters: Parameters) -> dict
 
 
 def apply(template: eqx.Module, parameters: Parameters, unconstrained: dict[str, Array]) -> PyTree:
-    """The template with every tuned field replaced (`eqx.tree_at`), in the dtype of the field
-    it replaces (jaxatt's constructors store strongly typed arrays, so a tuned module has the
-    template's exact types and reuses its compiled programs)."""
+    """The template with every tuned field set from its unconstrained variable
+    ([`with_gains`][] of the [`constrained`][] gains)."""
+    return with_gains(template, parameters, constrained(unconstrained, parameters))
+
+
+def with_gains(
+    template: eqx.Module, parameters: Parameters, gains: Mapping[str, ArrayLike | Sequence]
+) -> PyTree:
+    """The template with the fields of the named `gains` (constrained values, e.g. a tuning
+    report's `gains_after`) replaced (`eqx.tree_at`), each in the dtype of the field it
+    replaces: jaxatt's constructors store strongly typed arrays, so a tuned module has the
+    template's exact types and reuses its compiled programs. A name not in `parameters`, or a
+    value of another shape than its field, is a `ValueError`."""
     module = template
-    for name, value in constrained(unconstrained, parameters).items():
+    for name, value in gains.items():
+        if name not in parameters:
+            raise ValueError(
+                f"with_gains: `gains` names {name!r}, which is not one of the parameters "
+                f"{sorted(parameters)}."
+            )
         select = path_selector(parameters[name].path)
         old = select(module)
+        if np.shape(value) != old.shape:
+            raise ValueError(
+                f"with_gains: gain {name!r} must have the shape of "
+                f"{parameters[name].path} {old.shape}, got {np.shape(value)}."
+            )
         module = eqx.tree_at(select, module, jnp.asarray(value, dtype=old.dtype))
     return module
