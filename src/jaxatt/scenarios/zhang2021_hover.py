@@ -90,6 +90,9 @@ RATE_ERROR0 = (0.02, -0.02, 0.02)
 ZETA = EPS = PHI = 0.01
 LINEAR_SURFACE = (0.01, 0.01, 0.01, 0.1, 0.1, 0.1)
 PPC_SURFACE = 1.0
+"""$c = I_6$ of PPC and FT-PPF; the controllers hold it per component, (6,), as the tuned gains
+of `jaxatt.scenarios.zhang2021_tuning` are, so that a tuned loop runs the paper's compiled
+programs (the same structure and shapes; $1 \\cdot \\kappa_1$ is exact either way)."""
 RHO0 = (40.0, 1.5, 1.0, 0.05)
 """Initial envelopes: position [m], attitude, velocity [m/s], angular velocity [rad/s]."""
 PPC_RHO_INF = 0.01
@@ -204,7 +207,7 @@ def controller(
     alpha_reading: str = "printed",
 ) -> PoseSlidingMode:
     """Controller `name` with the paper's gains and the decisions of the module docstring."""
-    surface = jnp.asarray(LINEAR_SURFACE) if name == "linear_smc" else PPC_SURFACE
+    surface = jnp.asarray(LINEAR_SURFACE) if name == "linear_smc" else jnp.full(6, PPC_SURFACE)
     return PoseSlidingMode(
         surface,
         ConstantRate(EPS, Saturation(PHI)),

@@ -37,9 +37,7 @@ import functools
 import json
 import pathlib
 
-import equinox as eqx
 import jax
-import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 import optax
@@ -85,11 +83,10 @@ sample or command 36 times the force bound on one
 
 
 def template(problem: str = "ppc") -> ClosedLoop:
-    """The paper's closed loop with per-component surface gains $c$ (6,) (all 1)."""
+    """The paper's closed loop, whose surface gains $c$ are per component, (6,) (all 1)."""
     if problem not in PROBLEMS:
         raise ValueError(f"zhang2021 tuning: `problem` must be one of {PROBLEMS}, got {problem!r}.")
-    loop = hover.build(problem)
-    return eqx.tree_at(lambda m: m.controller.surface_gain, loop, jnp.ones(6))
+    return hover.build(problem)
 
 
 def parameters(problem: str = "ppc") -> dict[str, tuning.Parameter]:
@@ -342,13 +339,7 @@ def recorded(problem: str = "ppc") -> dict:
 def tuned_loop(problem: str = "ppc", gains: dict | None = None) -> ClosedLoop:
     """The template of `problem` with `gains` (default: the recorded run's tuned gains)."""
     gains = recorded(problem)["gains_after"] if gains is None else gains
-    loop = template(problem)
-    for name, parameter in parameters(problem).items():
-        old = parameter.where(loop)
-        loop = eqx.tree_at(
-            lambda m, p=parameter: p.where(m), loop, jnp.asarray(gains[name], dtype=old.dtype)
-        )
-    return loop
+    return tuning.with_gains(template(problem), parameters(problem), gains)
 
 
 PROBLEM = TuningProblem(
