@@ -34,7 +34,8 @@ stderr. What the problem writes (its report, where it records the stop, and the 
 holds the last good step. `demo`: its tuning stage did not complete (no summary or report)."""
 
 EXIT_CODES = f"""exit status:
-  {EXIT_OK}  done (tune: every optimizer step completed)
+  {EXIT_OK}  done (tune: every optimizer step completed; tuned gains above a training
+     penalty's bound on held-out samples are a warning on stderr)
   {EXIT_ERROR}  an unexpected error (traceback on stderr)
   {EXIT_USAGE}  bad command line, unknown NAME, or tune --resume without a checkpoint in
      the output folder or with another run's checkpoint there (nothing was run)
@@ -124,6 +125,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         f"{_settling(tuned['held_out_before'])} with the paper's gains, "
         f"{_settling(tuned['held_out_after'])} tuned"
     )
+    _warn_over_bounds("demo", tuned["held_out_over_bounds"])
     print(
         f"[jaxatt] done in {time.perf_counter() - start:.1f} s; report: "
         f"{(out / 'report.md').resolve()}"
@@ -203,6 +205,7 @@ def _cmd_tune(args: argparse.Namespace) -> int:
         )
     )
     print(f"[jaxatt] report written to {(out / 'report.md').resolve()}")
+    _warn_over_bounds(f"tune {args.name}", report.get("held_out_over_bounds"))
     if report.get("stopped"):
         # The problem stopped at a non-finite step and reported it: the report and the
         # checkpoint hold the last good step, and the run must not read as a success.
@@ -213,6 +216,18 @@ def _cmd_tune(args: argparse.Namespace) -> int:
         )
         return EXIT_STOPPED
     return EXIT_OK
+
+
+def _warn_over_bounds(command: str, over: list[str] | None) -> None:
+    """Say on stderr that the tuned gains exceed, on held-out samples, a bound their training
+    penalties hold (a tuning report's `held_out_over_bounds`); the run itself completed."""
+    if over:
+        print(
+            f"jaxatt: warning: {command}: the tuned gains exceed a penalty's bound on held-out "
+            f"samples: {'; '.join(over)}. The penalties hold their bounds on the training "
+            "batch only (report.md).",
+            file=sys.stderr,
+        )
 
 
 def _positive_int(text: str) -> int:

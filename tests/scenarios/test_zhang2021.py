@@ -288,6 +288,7 @@ def test_the_tuning_report_names_held_out_peaks_above_the_penalties_bounds(tmp_p
         )
         report = zt.run(tmp_path, samples=2, steps=2, validation_samples=2)
         assert zt.held_out_over_bounds(report["validation"]["after"]) == expected
+        assert report["held_out_over_bounds"] == expected  # what `jaxatt tune` prints
         text = (tmp_path / "report.md").read_text()
         assert ("above the penalties' bounds" in text) == bool(expected)
         assert all(item in text for item in expected)

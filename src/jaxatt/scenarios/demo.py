@@ -113,6 +113,7 @@ def run(
             "held_out_before": tuning["validation"]["before"],
             "held_out_after": tuning["validation"]["after"],
             "mean_settling_time_reduction": tuning["mean_settling_time_reduction"],
+            "held_out_over_bounds": tuning["held_out_over_bounds"],
         },
         "timings_s": timings,
     }
@@ -216,6 +217,8 @@ def _write_report(out: pathlib.Path, summary: dict, n: int, tuning: dict) -> Non
     lines += [
         "",
         chen2022_tuning.reduction_sentence(tuning),
+        "",
+        *chen2022_tuning.over_bounds_lines(tuning),
         "Details: `tuning/report.md`, `tuning/loss.png`, `tuning/settling_cdf.png`.",
         "",
         "Wall time per stage [s]: "
