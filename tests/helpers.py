@@ -130,3 +130,14 @@ def ulps(value: np.ndarray, reference: np.ndarray) -> np.ndarray:
     flushed = np.abs(reference) < np.finfo(np.float64).tiny
     reference = np.where(flushed, np.copysign(0.0, reference), reference)
     return np.abs(value - reference) / np.spacing(np.abs(reference))
+
+
+def is_lbfgs(transformation, params) -> bool:
+    """Whether an optax transformation has `optax.lbfgs()`'s state structure on `params` (what a
+    stand-in `tune` received for `--optimizer lbfgs`; an Adam's state differs)."""
+    import optax
+
+    def structure(t):
+        return jax.tree.structure(t.init(params))
+
+    return structure(transformation) == structure(optax.lbfgs())

@@ -99,6 +99,13 @@ def test_tune_command_writes_a_report_and_resumes(tmp_path, capsys):
     assert "was written for another tuning problem" in err and "nothing was run" in err
     assert compile_count("_loss_and_grad") == compiled
     assert (tmp_path / "checkpoint.eqx").read_bytes() == saved
+    # An Adam run's checkpoint is not continued by L-BFGS (its state is another optimizer's).
+    assert cli.main(args + ["--resume", "--optimizer", "lbfgs"]) == cli.EXIT_USAGE
+    err = capsys.readouterr().err
+    assert "other parameters or optimizer?" in err and "nothing was run" in err
+    assert "with the same --samples and --optimizer" in err
+    assert compile_count("_loss_and_grad") == compiled
+    assert (tmp_path / "checkpoint.eqx").read_bytes() == saved
 
 
 def test_reproduce_chen2022_short_writes_figures_and_metrics(tmp_path, capsys):
@@ -114,6 +121,20 @@ def test_reproduce_chen2022_short_writes_figures_and_metrics(tmp_path, capsys):
             assert entry["peak_torque"] <= 30.0
     figures = sorted(p.name for p in tmp_path.glob("*.png"))
     assert len(figures) == 11 and "fig5_sliding_variable_D1.png" in figures
+
+
+def test_tune_optimizer_choices_are_the_problems_and_others_are_refused(capsys):
+    import optax
+
+    from jaxatt.scenarios import OPTIMIZERS, select_optimizer
+
+    assert cli.TUNE_OPTIMIZERS == OPTIMIZERS == ("default", "lbfgs")
+    with pytest.raises(SystemExit) as error:
+        cli.main(["tune", "chen2022", "--optimizer", "sgd"])
+    assert error.value.code == cli.EXIT_USAGE
+    assert "--optimizer: invalid choice: 'sgd'" in capsys.readouterr().err
+    with pytest.raises(ValueError, match=r"problem: `optimizer` must be one of .*'sgd'"):
+        select_optimizer("problem", "sgd", optax.adam(0.1), "adam(0.1)")
 
 
 def test_unknown_scenario_is_an_error(capsys):

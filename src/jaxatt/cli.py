@@ -33,6 +33,10 @@ EXIT_STOPPED = 3
 stderr. What the problem writes (its report, where it records the stop, and the checkpoint)
 holds the last good step. `demo`: its tuning stage did not complete (no summary or report)."""
 
+TUNE_OPTIMIZERS = ("default", "lbfgs")
+"""`jaxatt tune --optimizer`'s choices: `jaxatt.scenarios.OPTIMIZERS` (kept here so that building
+the parser imports no scenario; a test checks the two are equal)."""
+
 EXIT_CODES = f"""exit status:
   {EXIT_OK}  done (tune: every optimizer step completed; tuned gains above a training
      penalty's bound on held-out samples are a warning on stderr)
@@ -168,7 +172,9 @@ def _cmd_tune(args: argparse.Namespace) -> int:
         if v is not None
     }
     try:
-        report = TUNING[args.name].run(out, resume=args.resume, progress=True, **sizes)
+        report = TUNING[args.name].run(
+            out, resume=args.resume, progress=True, optimizer=args.optimizer, **sizes
+        )
     except NoCheckpointError as error:
         looked = ", ".join(path.name for path in error.paths)
         print(
@@ -183,8 +189,8 @@ def _cmd_tune(args: argparse.Namespace) -> int:
         print(
             f"jaxatt: tune {args.name} --resume: {error}\n"
             f"jaxatt: nothing was run and {error.path.resolve()} was left as it was. Pass the "
-            "--out folder of this problem's run (with the same --samples) to continue it, or "
-            "leave out --resume to start a fresh run in another folder.",
+            "--out folder of this problem's run (with the same --samples and --optimizer) to "
+            "continue it, or leave out --resume to start a fresh run in another folder.",
             file=sys.stderr,
         )
         return EXIT_USAGE
@@ -309,6 +315,15 @@ def build_parser() -> argparse.ArgumentParser:
         "--validation-samples",
         type=_positive_int,
         help="held-out batch size, fresh key (default: the problem's)",
+    )
+    tun.add_argument(
+        "--optimizer",
+        choices=TUNE_OPTIMIZERS,
+        default="default",
+        help=(
+            "the problem's own optimizer (default; its recorded runs') or optax.lbfgs() with its "
+            "zoom line search; a checkpoint of one is not resumed by the other"
+        ),
     )
     tun.add_argument("--out", help="output folder (default ./jaxatt-out/tune-NAME)")
     tun.add_argument(

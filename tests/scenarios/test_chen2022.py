@@ -19,6 +19,8 @@ from jaxatt.numerics import safe_norm
 from jaxatt.scenarios import chen2022_two_phase_power as chen
 from jaxatt.simulation import simulate
 
+from ..helpers import is_lbfgs
+
 
 @pytest.fixture(scope="module")
 def results():
@@ -289,7 +291,13 @@ def test_tuned_chattering_above_the_bound_is_named_by_the_report_and_the_cli(
         best_module="tuned",
         best_gains=gains,
     )
-    monkeypatch.setattr(tuning, "tune", lambda *args, **kwargs: fake)
+    received = []
+
+    def fake_tune(*args, optimizer, **kwargs):
+        received.append(optimizer)
+        return fake
+
+    monkeypatch.setattr(tuning, "tune", fake_tune)
     # as `tune.evaluate` returns them: jax arrays
     within, above, paper = (
         jax.tree.map(jnp.asarray, m) for m in (within, above, _held_out(times, [0, 0, 0, 0]))
@@ -310,6 +318,18 @@ def test_tuned_chattering_above_the_bound_is_named_by_the_report_and_the_cli(
         assert ("above the chattering penalty's bound" in text) == bool(over)
         assert ("jaxatt: warning: tune chen2022" in err) == bool(over)
         assert all(item in text and item in err for item in over)
+    u = tuning.initial_unconstrained(chen.build("M1"), ct.parameters())
+    assert not is_lbfgs(received[-1], u)  # the problem's clipped Adam by default
+
+    # `--optimizer lbfgs` reaches `tune` and the report says which optimizer ran.
+    out = tmp_path / "lbfgs"
+    args = ["tune", "chen2022", "--samples", "2", "--steps", "2", "--optimizer", "lbfgs"]
+    assert cli.main([*args, "--validation-samples", "4", "--out", str(out)]) == cli.EXIT_OK
+    capsys.readouterr()
+    assert is_lbfgs(received[-1], u)
+    report = json.loads((out / "tuning.json").read_text())
+    assert report["settings"]["optimizer"] == "optax.lbfgs() (zoom line search)"
+    assert "2 steps of optax.lbfgs() (zoom line search)" in (out / "report.md").read_text()
 
     # `jaxatt demo` (its tuning stage is this problem's run): its report and the CLI's stderr.
     from jaxatt.scenarios import demo

@@ -22,6 +22,8 @@ import pytest
 
 from jaxatt.scenarios import REGISTRY, TUNING, shi2024, shi2024_tuning
 
+from ..helpers import is_lbfgs
+
 
 KEYS = (
     "attitude_settle_time_1e-2",
@@ -272,6 +274,17 @@ def test_resume_needs_a_checkpoint_and_continues_the_weights_that_have_one(tmp_p
     assert resumed == {"checkpoint_w0.eqx": True, "checkpoint_w100.eqx": False}
     assert report == json.loads((tmp_path / "tuning.json").read_text())  # scenarios/_io.py
     assert report["points"][0]["convergence_time"] is None
+    # `optimizer="lbfgs"` (`jaxatt tune shi2024 --optimizer lbfgs`) reaches every weight's run.
+    received = []
+
+    def capturing_tune(template, parameters, objective, inputs, *, optimizer, **kwargs):
+        received.append(optimizer)
+        return fake_tune(template, parameters, objective, inputs, **kwargs)
+
+    monkeypatch.setattr(tune, "tune", capturing_tune)
+    report = shi2024_tuning.run(tmp_path / "lbfgs", weights=(0.0, 100.0), optimizer="lbfgs")
+    assert len(received) == 2 and all(is_lbfgs(o, u) for o in received)
+    assert report["settings"]["optimizer"] == "optax.lbfgs() (zoom line search)"
 
 
 def test_a_failed_sample_makes_the_vibration_loss_inf(monkeypatch):

@@ -13,7 +13,7 @@ from jaxatt.performance import MinimumMargin
 from jaxatt.scenarios import REGISTRY, TUNING, zhang2021_hover as hover, zhang2021_tuning
 from jaxatt.simulation import ClosedLoop, Saturation, Simulation, Status, simulate
 
-from ..helpers import compile_count
+from ..helpers import compile_count, is_lbfgs
 
 
 def test_registered():
@@ -292,3 +292,15 @@ def test_the_tuning_report_names_held_out_peaks_above_the_penalties_bounds(tmp_p
         text = (tmp_path / "report.md").read_text()
         assert ("above the penalties' bounds" in text) == bool(expected)
         assert all(item in text for item in expected)
+    # `optimizer="lbfgs"` (`jaxatt tune zhang2021 --optimizer lbfgs`) reaches `tune`.
+    received = []
+
+    def fake_tune(*args, optimizer, **kwargs):
+        received.append(optimizer)
+        return fake
+
+    monkeypatch.setattr(tuning, "tune", fake_tune)
+    report = zt.run(tmp_path, samples=2, steps=2, validation_samples=2, optimizer="lbfgs")
+    assert is_lbfgs(received[-1], {"rate": jnp.zeros(4), "c": jnp.zeros(6)})
+    assert report["settings"]["optimizer"] == "optax.lbfgs() (zoom line search)"
+    assert "2 of 2 L-BFGS steps" in (tmp_path / "report.md").read_text()

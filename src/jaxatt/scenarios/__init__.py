@@ -23,7 +23,13 @@ from . import (
     zhang2021_hover as zhang2021_hover,
     zhang2021_tuning as zhang2021_tuning,
 )
-from ._protocol import Scenario as Scenario, TuningProblem as TuningProblem
+from ._protocol import (
+    OPTIMIZERS as OPTIMIZERS,
+    ChosenOptimizer as ChosenOptimizer,
+    Scenario as Scenario,
+    TuningProblem as TuningProblem,
+    select_optimizer as select_optimizer,
+)
 
 
 REGISTRY: dict[str, Scenario] = {

@@ -4,6 +4,9 @@ tuning problems (`jaxatt tune NAME`)."""
 import dataclasses
 import pathlib
 from collections.abc import Callable, Sequence
+from typing import NamedTuple
+
+import optax
 
 from ..simulation import AbstractClosedLoop, Trajectory
 from ..tune import NoCheckpointError
@@ -35,9 +38,11 @@ class Scenario:
 class TuningProblem:
     """A tuning problem (`jaxatt tune NAME`).
 
-    `run(out_dir, *, samples, steps, validation_samples, resume, progress) -> dict` tunes,
-    validates on a held-out batch and writes a report to `out_dir`; it returns the report as
-    `tuning.json` holds it. `resume=True` continues
+    `run(out_dir, *, samples, steps, validation_samples, resume, progress, optimizer) -> dict`
+    tunes, validates on a held-out batch and writes a report to `out_dir`; it returns the
+    report as `tuning.json` holds it. `optimizer` is one of
+    [`OPTIMIZERS`][jaxatt.scenarios.OPTIMIZERS] (see
+    [`select_optimizer`][jaxatt.scenarios.select_optimizer]). `resume=True` continues
     from the checkpoint in `out_dir` and raises [`NoCheckpointError`][jaxatt.tune.NoCheckpointError]
     (before anything is compiled or written) when there is none: never a quiet fresh start.
     A step whose loss is not finite either raises
@@ -66,3 +71,31 @@ def require_checkpoint(where: str, out_dir: str | pathlib.Path, names: Sequence[
             "pass resume=False) to start afresh.",
             paths,
         )
+
+
+OPTIMIZERS = ("default", "lbfgs")
+"""What `jaxatt tune NAME --optimizer` (a tuning problem's `run(..., optimizer=)`) accepts:
+the problem's own optimizer, which its recorded runs used, or `optax.lbfgs()` (L-BFGS with
+optax's zoom line search; docs/howto/tuning.md, "Adam or L-BFGS")."""
+
+
+class ChosenOptimizer(NamedTuple):
+    """An optimizer of [`select_optimizer`][jaxatt.scenarios.select_optimizer]: the transformation `jaxatt.tune.tune` takes, its
+    description for a report's settings, and a short name for its prose ("Adam steps")."""
+
+    transformation: optax.GradientTransformation
+    label: str
+    name: str
+
+
+def select_optimizer(
+    where: str, choice: str, default: optax.GradientTransformation, default_label: str
+) -> ChosenOptimizer:
+    """The optimizer a tuning problem's `run` uses for `choice` (one of [`OPTIMIZERS`][jaxatt.scenarios.OPTIMIZERS]):
+    `"default"`, the problem's `default` (an Adam, described by `default_label`); `"lbfgs"`,
+    `optax.lbfgs()`. Anything else is a `ValueError` naming `optimizer`, before anything runs."""
+    if choice == "default":
+        return ChosenOptimizer(default, default_label, "Adam")
+    if choice == "lbfgs":
+        return ChosenOptimizer(optax.lbfgs(), "optax.lbfgs() (zoom line search)", "L-BFGS")
+    raise ValueError(f"{where}: `optimizer` must be one of {OPTIMIZERS}, got {choice!r}.")

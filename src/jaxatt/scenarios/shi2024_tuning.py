@@ -41,7 +41,7 @@ from ..rotations import attitude_error_quat
 from ..simulation import AbstractClosedLoop, ClosedLoop, Simulation, Status, integrate
 from . import shi2024
 from ._io import write_json
-from ._protocol import TuningProblem, require_checkpoint
+from ._protocol import TuningProblem, require_checkpoint, select_optimizer
 
 
 TOLERANCE = 1e-2
@@ -200,6 +200,7 @@ def run(
     resume: bool = False,
     progress: bool = False,
     weights=WEIGHTS,
+    optimizer: str = "default",
 ) -> dict:
     """One tuning run per penalty weight; writes `tuning.json` (gains, losses, the trade-off
     curve of convergence time vs residual modal energy on the tuning loop, and each point
@@ -219,7 +220,13 @@ def run(
     belongs to another run is a [`CheckpointMismatchError`][jaxatt.tune.CheckpointMismatchError]
     then, not after the weights before it have run. A step whose loss or gradient is not
     finite raises [`NonFiniteLossError`][jaxatt.tune.NonFiniteLossError] (that weight's
-    checkpoint keeps its last good step; no report is written)."""
+    checkpoint keeps its last good step; no report is written).
+
+    `optimizer`: `"default"` (the clip + Adam above, the recorded run's) or `"lbfgs"`
+    (`optax.lbfgs()`), for every weight; written to the report's settings."""
+    chosen = select_optimizer(
+        "shi2024_tuning", optimizer, _OPTIMIZER, f"clip_by_global_norm(1) + adam({LEARNING_RATE})"
+    )
     if samples != 1 or validation_samples != 1:
         raise ValueError(
             "shi2024_tuning: the problem is deterministic (the paper's initial state): "
@@ -241,7 +248,7 @@ def run(
                     x0s,
                     out / name,
                     steps=steps,
-                    optimizer=_OPTIMIZER,
+                    optimizer=chosen.transformation,
                     objective=VibrationObjective(w),
                 )
     out.mkdir(parents=True, exist_ok=True)
@@ -255,7 +262,7 @@ def run(
             VibrationObjective(w),
             x0s,
             steps=steps,
-            optimizer=_OPTIMIZER,
+            optimizer=chosen.transformation,
             checkpoint=out / checkpoints[w],
             resume=resume and (out / checkpoints[w]).is_file(),
             progress=progress,
@@ -279,7 +286,7 @@ def run(
             "tolerance": TOLERANCE,
             "energy_window": WINDOW,
             "steps": steps,
-            "optimizer": f"clip_by_global_norm(1) + adam({LEARNING_RATE})",
+            "optimizer": chosen.label,
             "loop": "TVSMC without observer, ZV smoother (tuned frequency)",
         },
         "start": {

@@ -48,7 +48,7 @@ from ..plants import RelativePoseState
 from ..simulation import ClosedLoop
 from . import zhang2021_hover as hover
 from ._io import write_json
-from ._protocol import TuningProblem, require_checkpoint
+from ._protocol import TuningProblem, require_checkpoint, select_optimizer
 
 
 PROBLEMS = ("ppc", "finite_time_ppf")
@@ -198,6 +198,7 @@ def run(
     progress: bool = False,
     seed: int = 0,
     problem: str = "ppc",
+    optimizer: str = "default",
 ) -> dict:
     """Tune, validate on a held-out batch, write `tuning.json` and `report.md` to `out_dir`.
 
@@ -206,13 +207,18 @@ def run(
     under `stopped` (`None` for a run that did all its steps), and `jaxatt tune` exits with
     status 3. `resume=True` continues from `checkpoint.eqx` in `out_dir` and raises
     [`NoCheckpointError`][jaxatt.tune.NoCheckpointError] before anything runs when it is not
-    there.
+    there. `optimizer`: `"default"` (Adam at `LEARNING_RATE[problem]`, the recorded runs') or
+    `"lbfgs"` (`optax.lbfgs()`); either way the report validates the last step's gains.
 
     **Returns:** the report: gains before/after, held-out summaries before/after (per-group
     mean and worst settling times, peaks, envelope usage, violations), the tuned gains'
     held-out peaks above the penalties' bounds (`held_out_over_bounds`, also printed by
     `jaxatt tune`), the loss history.
     """
+    if problem not in PROBLEMS:
+        raise ValueError(f"zhang2021 tuning: `problem` must be one of {PROBLEMS}, got {problem!r}.")
+    rate = LEARNING_RATE[problem]
+    chosen = select_optimizer("zhang2021_tuning", optimizer, optax.adam(rate), f"adam({rate})")
     if resume:
         require_checkpoint("zhang2021_tuning", out_dir, ["checkpoint.eqx"])
     out = pathlib.Path(out_dir)
@@ -228,7 +234,7 @@ def run(
         obj,
         train,
         steps=steps,
-        optimizer=optax.adam(LEARNING_RATE[problem]),
+        optimizer=chosen.transformation,
         checkpoint=out / "checkpoint.eqx",
         resume=resume,
         progress=progress,
@@ -247,7 +253,7 @@ def run(
             "force_bound": FORCE_BOUND,
             "torque_bound": TORQUE_BOUND,
             "usage_bound": USAGE_BOUND,
-            "optimizer": f"adam({LEARNING_RATE[problem]})",
+            "optimizer": chosen.label,
             "seed": seed,
         },
         "gains_before": {k: np.asarray(v).tolist() for k, v in result.initial_gains.items()},
@@ -265,7 +271,7 @@ def run(
         f"# Tuning Zhang 2021's {problem} envelopes and surface gains with autodiff",
         "",
         f"{samples} training and {validation_samples} held-out initial states, "
-        f"{result.steps} of {steps} Adam steps; objective: mean sum of the four groups' "
+        f"{result.steps} of {steps} {chosen.name} steps; objective: mean sum of the four groups' "
         "convergence times plus penalties (force 8 N, torque 0.2 N m, envelope usage 0.95).",
         "",
         *(
