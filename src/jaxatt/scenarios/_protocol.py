@@ -42,8 +42,8 @@ class TuningProblem:
     tunes, validates on a held-out batch and writes a report to `out_dir`; it returns the
     report as `tuning.json` holds it. `optimizer` is one of
     [`OPTIMIZERS`][jaxatt.scenarios.OPTIMIZERS] (see
-    [`select_optimizer`][jaxatt.scenarios.select_optimizer]). `resume=True` continues
-    from the checkpoint in `out_dir` and raises [`NoCheckpointError`][jaxatt.tune.NoCheckpointError]
+    [`select_optimizer`][jaxatt.scenarios.select_optimizer]). `resume=True` continues from the
+    checkpoint in `out_dir` and raises [`NoCheckpointError`][jaxatt.tune.NoCheckpointError]
     (before anything is compiled or written) when there is none: never a quiet fresh start.
     A step whose loss is not finite either raises
     [`NonFiniteLossError`][jaxatt.tune.NonFiniteLossError] or ends the run early with the
@@ -80,8 +80,9 @@ optax's zoom line search; docs/howto/tuning.md, "Adam or L-BFGS")."""
 
 
 class ChosenOptimizer(NamedTuple):
-    """An optimizer of [`select_optimizer`][jaxatt.scenarios.select_optimizer]: the transformation `jaxatt.tune.tune` takes, its
-    description for a report's settings, and a short name for its prose ("Adam steps")."""
+    """An optimizer of [`select_optimizer`][jaxatt.scenarios.select_optimizer]: the
+    transformation `jaxatt.tune.tune` takes, its description for a report's settings, and a
+    short name for its prose ("Adam steps")."""
 
     transformation: optax.GradientTransformation
     label: str
@@ -91,9 +92,10 @@ class ChosenOptimizer(NamedTuple):
 def select_optimizer(
     where: str, choice: str, default: optax.GradientTransformation, default_label: str
 ) -> ChosenOptimizer:
-    """The optimizer a tuning problem's `run` uses for `choice` (one of [`OPTIMIZERS`][jaxatt.scenarios.OPTIMIZERS]):
-    `"default"`, the problem's `default` (an Adam, described by `default_label`); `"lbfgs"`,
-    `optax.lbfgs()`. Anything else is a `ValueError` naming `optimizer`, before anything runs."""
+    """The optimizer a tuning problem's `run` uses for `choice` (one of
+    [`OPTIMIZERS`][jaxatt.scenarios.OPTIMIZERS]): `"default"`, the problem's `default` (an Adam,
+    described by `default_label`); `"lbfgs"`, `optax.lbfgs()`. Anything else is a `ValueError`
+    naming `optimizer`, before anything runs."""
     if choice == "default":
         return ChosenOptimizer(default, default_label, "Adam")
     if choice == "lbfgs":
