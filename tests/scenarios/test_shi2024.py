@@ -274,17 +274,32 @@ def test_resume_needs_a_checkpoint_and_continues_the_weights_that_have_one(tmp_p
     assert resumed == {"checkpoint_w0.eqx": True, "checkpoint_w100.eqx": False}
     assert report == json.loads((tmp_path / "tuning.json").read_text())  # scenarios/_io.py
     assert report["points"][0]["convergence_time"] is None
-    # `optimizer="lbfgs"` (`jaxatt tune shi2024 --optimizer lbfgs`) reaches every weight's run.
-    received = []
+    assert [p["validated_step"] for p in report["points"]] == [1, 1]  # Adam: the last step
+    # `optimizer="lbfgs"` (`jaxatt tune shi2024 --optimizer lbfgs`) reaches every weight's run,
+    # and each point holds its best step's gains (a line search's last point can be its worst).
+    received, evaluated = [], []
 
     def capturing_tune(template, parameters, objective, inputs, *, optimizer, **kwargs):
         received.append(optimizer)
-        return fake_tune(template, parameters, objective, inputs, **kwargs)
+        last = fake_tune(template, parameters, objective, inputs, **kwargs)
+        best = {k: np.asarray(v * 2) for k, v in last.gains.items()}
+        return tune.TuneResult(
+            "last", last.gains, last.gains, np.array([2.0, 3.0]), 2, None, None, 0, "best", best
+        )
+
+    def fake_evaluate(module, objective, inputs):
+        evaluated.append(module)
+        return None, aux
 
     monkeypatch.setattr(tune, "tune", capturing_tune)
+    monkeypatch.setattr(tune, "evaluate", fake_evaluate)
     report = shi2024_tuning.run(tmp_path / "lbfgs", weights=(0.0, 100.0), optimizer="lbfgs")
     assert len(received) == 2 and all(is_lbfgs(o, u) for o in received)
     assert report["settings"]["optimizer"] == "optax.lbfgs() (zoom line search)"
+    assert "last" not in evaluated and evaluated.count("best") == 2
+    assert [p["validated_step"] for p in report["points"]] == [0, 0]
+    start = report["start"]["gains"]
+    assert report["points"][0]["gains"]["k0"] == pytest.approx(2 * start["k0"])
 
 
 def test_a_failed_sample_makes_the_vibration_loss_inf(monkeypatch):

@@ -292,15 +292,36 @@ def test_the_tuning_report_names_held_out_peaks_above_the_penalties_bounds(tmp_p
         text = (tmp_path / "report.md").read_text()
         assert ("above the penalties' bounds" in text) == bool(expected)
         assert all(item in text for item in expected)
-    # `optimizer="lbfgs"` (`jaxatt tune zhang2021 --optimizer lbfgs`) reaches `tune`.
-    received = []
+    assert report["validated_step"] == 2  # Adam: the last step's gains, as recorded
+    # `optimizer="lbfgs"` (`jaxatt tune zhang2021 --optimizer lbfgs`) reaches `tune`, and the
+    # report validates the best step (a line search's last point can be its worst).
+    received, evaluated = [], []
+    best_gains = {"rate": np.full(4, 2.0), "c": np.full(6, 3.0)}
+    lbfgs_result = tuning.TuneResult(
+        module="last",
+        gains=gains,
+        initial_gains=gains,
+        losses=np.array([3.0, 1.0]),
+        steps=2,
+        best_step=1,
+        best_module="best",
+        best_gains=best_gains,
+    )
 
     def fake_tune(*args, optimizer, **kwargs):
         received.append(optimizer)
-        return fake
+        return lbfgs_result
+
+    def fake_evaluate(module, objective, inputs):
+        evaluated.append(module)
+        return None, within
 
     monkeypatch.setattr(tuning, "tune", fake_tune)
+    monkeypatch.setattr(tuning, "evaluate", fake_evaluate)
     report = zt.run(tmp_path, samples=2, steps=2, validation_samples=2, optimizer="lbfgs")
     assert is_lbfgs(received[-1], {"rate": jnp.zeros(4), "c": jnp.zeros(6)})
     assert report["settings"]["optimizer"] == "optax.lbfgs() (zoom line search)"
     assert "2 of 2 L-BFGS steps" in (tmp_path / "report.md").read_text()
+    assert evaluated[-1] == "best" and "last" not in evaluated
+    assert report["validated_step"] == 1
+    assert report["gains_after"] == {k: v.tolist() for k, v in best_gains.items()}

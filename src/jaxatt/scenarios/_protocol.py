@@ -81,12 +81,17 @@ optax's zoom line search; docs/howto/tuning.md, "Adam or L-BFGS")."""
 
 class ChosenOptimizer(NamedTuple):
     """An optimizer of [`select_optimizer`][jaxatt.scenarios.select_optimizer]: the
-    transformation `jaxatt.tune.tune` takes, its description for a report's settings, and a
-    short name for its prose ("Adam steps")."""
+    transformation `jaxatt.tune.tune` takes, its description for a report's settings, a short
+    name for its prose ("Adam steps"), and `validate_best`: whether a problem that validates
+    its last step's gains with its default optimizer (so that its recorded runs repeat)
+    validates the best step's instead (`TuneResult.best_module`). True for L-BFGS: optax
+    applies a line search's last trial point even where none met the search's condition, so
+    its last step can be its worst."""
 
     transformation: optax.GradientTransformation
     label: str
     name: str
+    validate_best: bool
 
 
 def select_optimizer(
@@ -97,7 +102,7 @@ def select_optimizer(
     described by `default_label`); `"lbfgs"`, `optax.lbfgs()`. Anything else is a `ValueError`
     naming `optimizer`, before anything runs."""
     if choice == "default":
-        return ChosenOptimizer(default, default_label, "Adam")
+        return ChosenOptimizer(default, default_label, "Adam", False)
     if choice == "lbfgs":
-        return ChosenOptimizer(optax.lbfgs(), "optax.lbfgs() (zoom line search)", "L-BFGS")
+        return ChosenOptimizer(optax.lbfgs(), "optax.lbfgs() (zoom line search)", "L-BFGS", True)
     raise ValueError(f"{where}: `optimizer` must be one of {OPTIMIZERS}, got {choice!r}.")

@@ -223,7 +223,9 @@ def run(
     checkpoint keeps its last good step; no report is written).
 
     `optimizer`: `"default"` (the clip + Adam above, the recorded run's) or `"lbfgs"`
-    (`optax.lbfgs()`), for every weight; written to the report's settings."""
+    (`optax.lbfgs()`), for every weight; written to the report's settings. Each point holds
+    the gains after its last step (Adam, as recorded) or, under L-BFGS, those of its step
+    with the lowest loss (`validated_step`: the number of updates behind them)."""
     chosen = select_optimizer(
         "shi2024_tuning", optimizer, _OPTIMIZER, f"clip_by_global_norm(1) + adam({LEARNING_RATE})"
     )
@@ -267,12 +269,21 @@ def run(
             resume=resume and (out / checkpoints[w]).is_file(),
             progress=progress,
         )
-        _, aux = tuning.evaluate(result.module, start_obj, x0s)
-        gains = {k: float(v) for k, v in result.gains.items()}
+        if chosen.validate_best:
+            tuned, tuned_gains, validated_step = (
+                result.best_module,
+                result.best_gains,
+                result.best_step,
+            )
+        else:
+            tuned, tuned_gains, validated_step = result.module, result.gains, result.steps
+        _, aux = tuning.evaluate(tuned, start_obj, x0s)
+        gains = {k: float(v) for k, v in tuned_gains.items()}
         points.append(
             {
                 "weight": w,
                 "gains": gains,
+                "validated_step": validated_step,
                 "losses": [float(v) for v in result.losses],
                 "convergence_time": float(aux["convergence_time"][0]),
                 "residual_modal_energy": float(aux["residual_modal_energy"][0]),

@@ -208,7 +208,9 @@ def run(
     status 3. `resume=True` continues from `checkpoint.eqx` in `out_dir` and raises
     [`NoCheckpointError`][jaxatt.tune.NoCheckpointError] before anything runs when it is not
     there. `optimizer`: `"default"` (Adam at `LEARNING_RATE[problem]`, the recorded runs') or
-    `"lbfgs"` (`optax.lbfgs()`); either way the report validates the last step's gains.
+    `"lbfgs"` (`optax.lbfgs()`). The report validates the gains after the last step (Adam: what
+    the recorded runs did) or, under L-BFGS, those of the step with the lowest training loss
+    (`validated_step`: the number of updates behind them).
 
     **Returns:** the report: gains before/after, held-out summaries before/after (per-group
     mean and worst settling times, peaks, envelope usage, violations), the tuned gains'
@@ -241,7 +243,11 @@ def run(
         on_nonfinite="stop",
     )
     _, before = tuning.evaluate(start, obj, held_out)
-    _, after = tuning.evaluate(result.module, obj, held_out)
+    if chosen.validate_best:
+        tuned, gains, validated_step = result.best_module, result.best_gains, result.best_step
+    else:
+        tuned, gains, validated_step = result.module, result.gains, result.steps
+    _, after = tuning.evaluate(tuned, obj, held_out)
     report = {
         "problem": problem,
         "settings": {
@@ -257,7 +263,8 @@ def run(
             "seed": seed,
         },
         "gains_before": {k: np.asarray(v).tolist() for k, v in result.initial_gains.items()},
-        "gains_after": {k: np.asarray(v).tolist() for k, v in result.gains.items()},
+        "gains_after": {k: np.asarray(v).tolist() for k, v in gains.items()},
+        "validated_step": validated_step,
         "validation": {"before": held_out_summary(before), "after": held_out_summary(after)},
         "losses": [float(v) for v in result.losses],
         "stopped": result.stopped,
