@@ -396,7 +396,7 @@ def test_a_failed_case1_recheck_is_reported_as_failed(tmp_path, monkeypatch):
 
     def tune(base, parameters, objective, x0s, **_):
         gains = {"kp": 0.5, "k0": 2.0, "gamma_k": 0.01, "omega_k": 0.7}
-        return types.SimpleNamespace(module=base, gains=gains, losses=[30.0, 29.0])
+        return types.SimpleNamespace(module=base, gains=gains, losses=[30.0, 29.0], steps=2)
 
     aux = {"convergence_time": np.array([25.0]), "residual_modal_energy": np.array([1e-4])}
     settled = {
