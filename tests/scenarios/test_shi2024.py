@@ -390,13 +390,13 @@ def test_a_failed_case1_recheck_is_reported_as_failed(tmp_path, monkeypatch):
     re-check's `result`, so a failed case-1 run showed only numbers, and `report.md` raised
     (`None:.4g`) on a re-check that never settled. Tuning and the re-checks are stubbed: only
     the report is under test."""
-    import types
-
+    from jaxatt import tune as tuning
     from jaxatt.scenarios import shi2024_tuning as st
 
     def tune(base, parameters, objective, x0s, **_):
-        gains = {"kp": 0.5, "k0": 2.0, "gamma_k": 0.01, "omega_k": 0.7}
-        return types.SimpleNamespace(module=base, gains=gains, losses=[30.0, 29.0], steps=2)
+        values = {"kp": 0.5, "k0": 2.0, "gamma_k": 0.01, "omega_k": 0.7}
+        gains = {k: np.asarray(v) for k, v in values.items()}
+        return tuning.TuneResult(base, gains, gains, np.array([30.0, 29.0]), 2)
 
     aux = {"convergence_time": np.array([25.0]), "residual_modal_energy": np.array([1e-4])}
     settled = {

@@ -7,9 +7,10 @@ from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
 import optax
+from jaxtyping import PyTree
 
 from ..simulation import AbstractClosedLoop, Trajectory
-from ..tune import NoCheckpointError
+from ..tune import NoCheckpointError, TuneResult
 
 
 @dataclasses.dataclass(frozen=True)
@@ -92,6 +93,14 @@ class ChosenOptimizer(NamedTuple):
     label: str
     name: str
     validate_best: bool
+
+    def validated(self, result: TuneResult) -> tuple[PyTree, dict, int]:
+        """`(module, gains, step)` a problem that validates its last step under its default
+        optimizer validates: the best step's (`validate_best`) or the last step's, `step`
+        the number of updates behind them."""
+        if self.validate_best:
+            return result.best_module, result.best_gains, result.best_step
+        return result.module, result.gains, result.steps
 
 
 def select_optimizer(

@@ -146,12 +146,12 @@ def held_out_over_bounds(summary: dict) -> list[str]:
     above.
     The penalty holds the bound on the training batch only; a settling-time reduction bought
     with chattering above it is not one the bound allows."""
-    value, above = summary["max_chattering"], summary["chattering_over_bound"]
-    if value is None or above == 0:
+    above = summary["chattering_over_bound"]  # 0 when no sample succeeded
+    if above == 0:
         return []
     return [
-        f"max_chattering {value:.4g} N m (bound {CHATTERING_BOUND:g} N m; {above} held-out "
-        f"sample{'s' if above > 1 else ''} above it)"
+        f"max_chattering {summary['max_chattering']:.4g} N m (bound {CHATTERING_BOUND:g} N m; "
+        f"{above} held-out sample{'s' if above > 1 else ''} above it)"
     ]
 
 

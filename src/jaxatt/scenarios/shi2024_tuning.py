@@ -269,14 +269,7 @@ def run(
             resume=resume and (out / checkpoints[w]).is_file(),
             progress=progress,
         )
-        if chosen.validate_best:
-            tuned, tuned_gains, validated_step = (
-                result.best_module,
-                result.best_gains,
-                result.best_step,
-            )
-        else:
-            tuned, tuned_gains, validated_step = result.module, result.gains, result.steps
+        tuned, tuned_gains, validated_step = chosen.validated(result)
         _, aux = tuning.evaluate(tuned, start_obj, x0s)
         gains = {k: float(v) for k, v in tuned_gains.items()}
         points.append(

@@ -82,24 +82,27 @@ sample or command 36 times the force bound on one
 (`benchmarks/bench_tuning_optimizers_zhang2021.py`, docs/howto/tuning.md)."""
 
 
-def template(problem: str = "ppc") -> ClosedLoop:
-    """The paper's closed loop, whose surface gains $c$ are per component, (6,) (all 1)."""
+def _checked(problem: str) -> str:
+    """`problem`, or a `ValueError` naming it unless it is one of `PROBLEMS`."""
     if problem not in PROBLEMS:
         raise ValueError(f"zhang2021 tuning: `problem` must be one of {PROBLEMS}, got {problem!r}.")
-    return hover.build(problem)
+    return problem
+
+
+def template(problem: str = "ppc") -> ClosedLoop:
+    """The paper's closed loop, whose surface gains $c$ are per component, (6,) (all 1)."""
+    return hover.build(_checked(problem))
 
 
 def parameters(problem: str = "ppc") -> dict[str, tuning.Parameter]:
     """The tuned parameters and their transforms."""
     gains = {"c": tuning.Parameter("controller.surface_gain", tuning.Positive())}
-    if problem == "ppc":
+    if _checked(problem) == "ppc":
         return {"rate": tuning.Parameter("controller.envelope.rate", tuning.Positive())} | gains
-    if problem == "finite_time_ppf":
-        return {
-            "T": tuning.Parameter("controller.envelope.horizon", tuning.Positive()),
-            "alpha": tuning.Parameter("controller.envelope.exponent", tuning.Interval(0.0, 1.0)),
-        } | gains
-    raise ValueError(f"zhang2021 tuning: `problem` must be one of {PROBLEMS}, got {problem!r}.")
+    return {
+        "T": tuning.Parameter("controller.envelope.horizon", tuning.Positive()),
+        "alpha": tuning.Parameter("controller.envelope.exponent", tuning.Interval(0.0, 1.0)),
+    } | gains
 
 
 def objective(
@@ -217,9 +220,7 @@ def run(
     held-out peaks above the penalties' bounds (`held_out_over_bounds`, also printed by
     `jaxatt tune`), the loss history.
     """
-    if problem not in PROBLEMS:
-        raise ValueError(f"zhang2021 tuning: `problem` must be one of {PROBLEMS}, got {problem!r}.")
-    rate = LEARNING_RATE[problem]
+    rate = LEARNING_RATE[_checked(problem)]
     chosen = select_optimizer("zhang2021_tuning", optimizer, optax.adam(rate), f"adam({rate})")
     if resume:
         require_checkpoint("zhang2021_tuning", out_dir, ["checkpoint.eqx"])
@@ -243,10 +244,7 @@ def run(
         on_nonfinite="stop",
     )
     _, before = tuning.evaluate(start, obj, held_out)
-    if chosen.validate_best:
-        tuned, gains, validated_step = result.best_module, result.best_gains, result.best_step
-    else:
-        tuned, gains, validated_step = result.module, result.gains, result.steps
+    tuned, gains, validated_step = chosen.validated(result)
     _, after = tuning.evaluate(tuned, obj, held_out)
     report = {
         "problem": problem,
@@ -347,9 +345,7 @@ def recorded(problem: str = "ppc") -> dict:
     """The `tuning.json` of the recorded by-hand run of `problem` (see the gallery page
     `docs/gallery/zhang2021.md`: `jaxatt tune zhang2021 --samples 16 --steps 30
     --validation-samples 32`, and the same with `zhang2021-finite-time`)."""
-    if problem not in PROBLEMS:
-        raise ValueError(f"zhang2021 tuning: `problem` must be one of {PROBLEMS}, got {problem!r}.")
-    return json.loads((RECORDED / f"zhang2021_{problem}.json").read_text())
+    return json.loads((RECORDED / f"zhang2021_{_checked(problem)}.json").read_text())
 
 
 def tuned_loop(problem: str = "ppc", gains: dict | None = None) -> ClosedLoop:
