@@ -1,6 +1,7 @@
 """Which fields of a module are tuned, and how they are constrained."""
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import equinox as eqx
 import jax
@@ -43,8 +44,12 @@ class Parameter(eqx.Module):
         self.path = path
         self.transform = transform
 
-    def where(self, module: PyTree) -> Array:
-        """The tuned array of `module`."""
+    def where(self, module: PyTree) -> Any:
+        """The tuned array of `module`: also a `where` for `eqx.tree_at(p.where, module, new)`.
+
+        Annotated `Any`, not `Array`: inside `eqx.tree_at` the field holds equinox's
+        placeholder, which a runtime type checker would refuse as an array.
+        """
         return get_path(module, self.path)
 
 
