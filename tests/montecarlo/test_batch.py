@@ -203,17 +203,26 @@ def test_small_products_stay_out_of_the_library_by_default():
     # jaxatt's CPU programs compile XLA's small dot products themselves (`NO_LIBRARY_FUSIONS`);
     # `library_fusions=True` gives XLA's default back. The option must reach XLA and do what
     # it says: a batched 3x3 product compiles to a YNNPACK fusion without it, and not with it.
+    # An XLA without YNNPACK (jaxlib before 0.8 or so, the oldest versions `.ci/oldest` runs)
+    # refuses the option: it is passed only where this XLA compiles a program with it.
     assert NO_LIBRARY_FUSIONS == {"xla_cpu_experimental_ynn_fusion_type": ""}
-    for performance in (Performance(), Performance().resolve(1000, "cpu")):
-        assert performance.compiler_options("cpu").items() >= NO_LIBRARY_FUSIONS.items()
-    assert Performance(library_fusions=True).compiler_options("cpu") == {}
-    assert Performance().compiler_options("gpu") == {}
-
     inertia = jnp.array([[20.0, 1.2, 0.9], [1.2, 17.0, 1.4], [0.9, 1.4, 15.0]])
     lowered = jax.jit(jax.vmap(lambda w: inertia @ w)).lower(jnp.ones((32, 3)))
-    library = lowered.compile().as_text()
-    own = lowered.compile(Performance().compiler_options("cpu")).as_text()
-    assert "__ynn_fusion" in library and "__ynn_fusion" not in own
+    try:
+        lowered.compile(NO_LIBRARY_FUSIONS)
+        known = True
+    except Exception:  # XLA's error types differ between jaxlib versions
+        known = False
+    expected = NO_LIBRARY_FUSIONS if known else {}
+    for performance in (Performance(), Performance().resolve(1000, "cpu")):
+        options = performance.compiler_options("cpu")
+        assert {k: options[k] for k in options if k in NO_LIBRARY_FUSIONS} == expected
+    assert Performance(library_fusions=True).compiler_options("cpu") == {}
+    assert Performance().compiler_options("gpu") == {}
+    if known:
+        library = lowered.compile().as_text()
+        own = lowered.compile(Performance().compiler_options("cpu")).as_text()
+        assert "__ynn_fusion" in library and "__ynn_fusion" not in own
 
 
 @pytest.mark.parametrize("bad", [None, 1, "False"])

@@ -94,6 +94,7 @@ SCRIPT = textwrap.dedent(
     from jaxatt.montecarlo import monte_carlo
     from jaxatt.plants import MRPState, RigidBodyMRP
     from jaxatt.simulation import ClosedLoop, simulate
+    from jaxatt.simulation._performance import _xla_knows_no_library_fusions
 
     folder = jaxatt.enable_compilation_cache(sys.argv[1])
     loop = ClosedLoop(RigidBodyMRP(jnp.diag(jnp.array([20.0, 17.0, 15.0]))), MRPPD(60.0, 50.0))
@@ -113,6 +114,9 @@ SCRIPT = textwrap.dedent(
         "entries": len(list(folder.iterdir())),
         "metrics": {k: v.tolist() for k, v in mc.metrics.items()},
         "failure": failure,
+        # jaxatt asks XLA once per process whether it knows an option (an empty program): an
+        # XLA without YNNPACK (`.ci/oldest`'s) refuses it, a request that caches nothing.
+        "refused": 0 if _xla_knows_no_library_fusions() else 1,
     }))
     """
 )
@@ -144,7 +148,7 @@ def test_a_new_process_loads_every_program_from_the_cache(two_runs):
     assert first["requests"] > 0 and first["hits"] == 0  # empty folder: everything compiled
     assert first["entries"] >= first["requests"] - 1  # and written (none refused)
     assert second["requests"] == first["requests"]
-    assert second["hits"] == second["requests"]  # nothing compiled the second time
+    assert second["hits"] == second["requests"] - second["refused"]  # nothing compiled again
     assert second["entries"] == first["entries"]
 
 

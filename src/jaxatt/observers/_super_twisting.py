@@ -167,16 +167,16 @@ class SuperTwistingObserver(AbstractObserver):
     """
 
     inertia: Float[Array, "3 3"]
-    rho1: Float[Array, "*k"]
-    rho2: Float[Array, "*k"]
+    rho1: Float[Array, "*#k"]
+    rho2: Float[Array, "*#k"]
     acceleration: bool = eqx.field(static=True)
     measurement_type: ClassVar[type] = object
 
     def __init__(
         self,
         inertia: Float[ArrayLike, "3 3"],
-        rho1: Float[ArrayLike, "*k"],
-        rho2: Float[ArrayLike, "*k"],
+        rho1: Float[ArrayLike, "*#k"],
+        rho2: Float[ArrayLike, "*#k"],
         *,
         acceleration: bool = False,
     ):

@@ -257,11 +257,18 @@ def _split_output(value, aval, limits: Limits):
 # --- The interpreter ------------------------------------------------------------------------
 
 
+def _bind(eqn, args: Sequence):
+    """Apply `eqn`'s primitive, with its parameters, to `args` (arrays)."""
+    bind = eqn.primitive.get_bind_params(eqn.params)
+    # JAX before 0.9 returns (subfunctions, parameters), later versions the parameters alone.
+    subfuns, params = bind if isinstance(bind, tuple) else ((), bind)
+    return eqn.primitive.bind(*subfuns, *args, **params)
+
+
 def _call_packed(eqn, invals, limits: Limits):
-    params = eqn.primitive.get_bind_params(eqn.params)
     args = [pack(v, var.aval.dtype) for v, var in zip(invals, eqn.invars)]
     with eqn.ctx.manager:
-        out = eqn.primitive.bind(*args, **params)
+        out = _bind(eqn, args)
     if eqn.primitive.multiple_results:
         return [_split_output(o, v.aval, limits) for o, v in zip(out, eqn.outvars)]
     return [_split_output(out, eqn.outvars[0].aval, limits)]
@@ -340,10 +347,9 @@ def _eval_custom_jvp(eqn, invals, limits: Limits):
     def rule(leaves, tangent_leaves):
         args = [pack(a, v.dtype) for a, v in zip(unflatten_in(leaves), in_avals)]
         tangents = [pack(a, v.dtype) for a, v in zip(unflatten_in(tangent_leaves), in_avals)]
-        params = eqn.primitive.get_bind_params(eqn.params)
 
         def original(*arrays):
-            return eqn.primitive.bind(*arrays, **params)
+            return _bind(eqn, arrays)
 
         outs, out_tangents = jax.jvp(original, args, tangents)
         flat_out = jtu.tree_leaves(to_flat([split(o, limits) for o in outs])[0])
@@ -425,9 +431,8 @@ def eval_jaxpr(
         env[var] = value
     for eqn in jaxpr.eqns:
         outs = _eval_eqn(eqn, [read(v) for v in eqn.invars], limits)
-        for var, value in zip(eqn.outvars, outs):
-            if not isinstance(var, jex.DropVar):
-                env[var] = value
+        # A dropped output (`DropVar`) is stored too: nothing reads it.
+        env.update(zip(eqn.outvars, outs))
     return [read(v) for v in jaxpr.outvars]
 
 
