@@ -19,6 +19,20 @@ def test_list_names_the_scenarios(capsys):
     assert "rigid_body_pd" in out and "Chen 2022" in out and "yu2022" in out
 
 
+def test_version_names_jaxatt_and_the_versions_its_numbers_depend_on(capsys):
+    import jax
+    import jaxlib
+
+    import jaxatt
+
+    with pytest.raises(SystemExit) as stop:
+        cli.main(["--version"])
+    assert stop.value.code == 0
+    out = capsys.readouterr().out.strip()
+    assert out.startswith(f"jaxatt {jaxatt.__version__} (")
+    assert f"jax {jax.__version__}," in out and f"jaxlib {jaxlib.__version__}," in out
+
+
 def test_demo_runs_the_whole_workflow_and_reports_measured_numbers(tmp_path, capsys):
     assert cli.main(["demo", "--short", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
@@ -35,6 +49,11 @@ def test_demo_runs_the_whole_workflow_and_reports_measured_numbers(tmp_path, cap
     after = tuned["held_out_after"]["mean_settling_time"]
     assert f"{before:.3g}" in report and f"{after:.3g}" in report
     assert tuned["gains_after"] != tuned["gains_before"]
+    # What the numbers were computed with (JAX's random bits and XLA's rounding move them).
+    import jax
+
+    assert summary["versions"]["jax"] == jax.__version__
+    assert f"jax {jax.__version__}," in report
     for name in (
         "montecarlo_cdf.png",
         "chen2022/fig5_sliding_variable_D1.png",

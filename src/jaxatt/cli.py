@@ -19,6 +19,8 @@ import pathlib
 import sys
 import time
 
+from ._versions import versions_line
+
 
 EXIT_OK = 0
 """Every command: done (for `tune`, every optimizer step completed)."""
@@ -257,6 +259,12 @@ def build_parser() -> argparse.ArgumentParser:
         ),
         epilog=EXIT_CODES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        "--version",
+        action="version",
+        version=versions_line(),
+        help="jaxatt's version and those of JAX, jaxlib, Equinox, diffrax, optax, NumPy, Python",
     )
     sub = parser.add_subparsers(dest="command", required=True)
     # Options every compiling command takes (after the command name).

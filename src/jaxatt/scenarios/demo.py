@@ -14,6 +14,7 @@ import time
 import jax.random as jr
 import numpy as np
 
+from .._versions import versions
 from ..metrics import AbstractMetric, Chattering, Peak, SettlingTime
 from . import chen2022_tuning, chen2022_two_phase_power as chen
 from ._io import write_json
@@ -116,6 +117,7 @@ def run(
             "held_out_over_bounds": tuning["held_out_over_bounds"],
         },
         "timings_s": timings,
+        "versions": versions(),
     }
     written = write_json(out / "summary.json", summary)
     _write_report(out, summary, n, tuning)
@@ -223,6 +225,8 @@ def _write_report(out: pathlib.Path, summary: dict, n: int, tuning: dict) -> Non
         "",
         "Wall time per stage [s]: "
         + ", ".join(f"{k} {v:.1f}" for k, v in summary["timings_s"].items()),
+        "",
+        "Computed with " + ", ".join(f"{k} {v}" for k, v in summary["versions"].items()) + ".",
         "",
     ]
     (out / "report.md").write_text("\n".join(lines))
