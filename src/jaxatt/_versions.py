@@ -14,15 +14,16 @@ PACKAGES = ("jaxatt", "jax", "jaxlib", "equinox", "diffrax", "optax", "numpy")
 
 
 def versions() -> dict[str, str]:
-    """`{distribution: version}` for `PACKAGES` ("not installed" where one is missing; jaxatt
-    run from a source tree without installing reads "0.0.0", as `jaxatt.__version__`), and the
-    Python version under `"python"`."""
-    found = {}
-    for name in PACKAGES:
+    """`{distribution: version}` for `PACKAGES` (jaxatt's is `jaxatt.__version__`; "not
+    installed" where one is missing), and the Python version under `"python"`."""
+    from . import __version__
+
+    found = {"jaxatt": __version__}
+    for name in PACKAGES[1:]:
         try:
             found[name] = importlib.metadata.version(name)
         except importlib.metadata.PackageNotFoundError:
-            found[name] = "0.0.0" if name == "jaxatt" else "not installed"
+            found[name] = "not installed"
     found["python"] = platform.python_version()
     return found
 

@@ -203,8 +203,8 @@ def test_small_products_stay_out_of_the_library_by_default():
     # jaxatt's CPU programs compile XLA's small dot products themselves (`NO_LIBRARY_FUSIONS`);
     # `library_fusions=True` gives XLA's default back. The option must reach XLA and do what
     # it says: a batched 3x3 product compiles to a YNNPACK fusion without it, and not with it.
-    # An XLA without YNNPACK (jaxlib before 0.8 or so, the oldest versions `.ci/oldest` runs)
-    # refuses the option: it is passed only where this XLA compiles a program with it.
+    # An XLA without YNNPACK (jaxlib 0.6.2's, the floor `.ci/oldest` runs) refuses the option:
+    # it is passed only where this XLA compiles a program with it.
     assert NO_LIBRARY_FUSIONS == {"xla_cpu_experimental_ynn_fusion_type": ""}
     inertia = jnp.array([[20.0, 1.2, 0.9], [1.2, 17.0, 1.4], [0.9, 1.4, 15.0]])
     lowered = jax.jit(jax.vmap(lambda w: inertia @ w)).lower(jnp.ones((32, 3)))
