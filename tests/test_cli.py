@@ -68,6 +68,9 @@ def test_demo_runs_the_whole_workflow_and_reports_measured_numbers(tmp_path, cap
     tuning_json = json.loads((tmp_path / "tuning" / "tuning.json").read_text())
     assert tuning_json["validation_dt_1e-3"] is None
     assert "| (not run: validate_at_paper_step=False) | 1e-3 |" in tuning_report
+    # Every report records the versions, the tuning's too (the stage's own files).
+    assert tuning_json["versions"] == summary["versions"]
+    assert f"jax {jax.__version__}," in tuning_report
 
 
 def test_scenario_rigid_body_pd_reproduces(tmp_path, capsys):
@@ -138,6 +141,9 @@ def test_reproduce_chen2022_short_writes_figures_and_metrics(tmp_path, capsys):
                 assert key in entry
             assert len(entry["s_i_settle_time"]) == 3
             assert entry["peak_torque"] <= 30.0
+    import jax
+
+    assert metrics["versions"]["jax"] == jax.__version__  # what computed these numbers
     figures = sorted(p.name for p in tmp_path.glob("*.png"))
     assert len(figures) == 11 and "fig5_sliding_variable_D1.png" in figures
 

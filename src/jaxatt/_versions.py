@@ -1,4 +1,5 @@
-"""The versions a result was computed with: `jaxatt --version` and the demo's report.
+"""The versions a result was computed with: `jaxatt --version`, and every scenario's report
+(`"versions"` in `metrics.json`, `tuning.json`, `summary.json`; a sentence in `report.md`).
 
 A number jaxatt reports depends on them: JAX's random bits (its default changed in 0.5) draw
 the Monte Carlo samples, and XLA's code generation rounds differently from one jaxlib to the
@@ -33,3 +34,10 @@ def versions_line() -> str:
     found = versions()
     rest = ", ".join(f"{name} {version}" for name, version in found.items() if name != "jaxatt")
     return f"jaxatt {found['jaxatt']} ({rest})"
+
+
+def versions_sentence(found: dict[str, str] | None = None) -> str:
+    """`Computed with jaxatt X, jax Y, ..., python W.`, for a Markdown report: `found` (a
+    `versions()` dict, as a JSON report recorded it) or, by default, this process's."""
+    found = versions() if found is None else found
+    return "Computed with " + ", ".join(f"{k} {v}" for k, v in found.items()) + "."

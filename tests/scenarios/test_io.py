@@ -46,11 +46,35 @@ def test_write_json_returns_what_a_reader_of_the_file_gets(tmp_path):
     assert returned == {"never": None, "t": [1.0, 2.5], "a": [None, 1.0]}
 
 
+def test_write_report_records_the_versions(tmp_path):
+    # A published number carries what computed it: the report gets "versions" (jaxatt, JAX,
+    # jaxlib, Equinox, diffrax, optax, NumPy, Python), in the file and in the returned dict.
+    import platform
+
+    import jax
+
+    import jaxatt
+
+    returned = _io.write_report(tmp_path / "m.json", {"t": math.inf})
+    assert returned == json.loads((tmp_path / "m.json").read_text())
+    assert returned["t"] is None
+    found = returned["versions"]
+    assert found["jaxatt"] == jaxatt.__version__
+    assert found["jax"] == jax.__version__
+    assert found["python"] == platform.python_version()
+    assert set(found) == {"jaxatt", "jax", "jaxlib", "equinox", "diffrax", "optax", "numpy"} | {
+        "python"
+    }
+    with pytest.raises(ValueError, match="already has the key 'versions'"):
+        _io.write_report(tmp_path / "n.json", {"versions": "mine"})
+    assert not (tmp_path / "n.json").exists()
+
+
 def test_every_scenario_writes_its_numbers_before_its_figures():
     """Audit (stop 49): `reproduce` drew its figures first, so a figure that failed on a failed
     run's NaN (Yu 2022's Fig. 3: `set_ylim` of NaN) left no `metrics.json`, the one file
     that reports the failure. Read from each registered scenario's source (running them all
-    is the scenario tests' job)."""
+    is the scenario tests' job); `write_report` also records the versions (stop 60)."""
     import inspect
 
     from jaxatt.scenarios import REGISTRY
@@ -58,8 +82,8 @@ def test_every_scenario_writes_its_numbers_before_its_figures():
     for name, scenario in REGISTRY.items():
         module = inspect.getmodule(scenario.reproduce)
         source = inspect.getsource(module.reproduce)
-        written = source.find("write_json(out")
+        written = source.find("write_report(out")
         assert written >= 0, name
         for figure_call in ("_write_figures(", ".savefig(", "figures("):
             at = source.find(figure_call)
-            assert at < 0 or written < at, f"{name}: {figure_call} before write_json"
+            assert at < 0 or written < at, f"{name}: {figure_call} before write_report"

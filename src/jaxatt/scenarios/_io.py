@@ -1,5 +1,5 @@
 """The one writer of the scenarios' JSON reports (`metrics.json`, `tuning.json`,
-`summary.json`).
+`summary.json`), and what every report records besides its numbers.
 
 One representation, in the file and in Python: every `reproduce()` (and tuning `run()`, and the
 demo) returns what `write_json` returns, which is exactly what `json.load` reads back from the
@@ -22,6 +22,7 @@ import json
 import pathlib
 
 from .._json import json_safe as json_safe
+from .._versions import versions
 
 
 def write_json(path: str | pathlib.Path, tree):
@@ -33,3 +34,17 @@ def write_json(path: str | pathlib.Path, tree):
     text = json.dumps(json_safe(tree), indent=2, allow_nan=False)
     pathlib.Path(path).write_text(text)
     return json.loads(text)
+
+
+def write_report(path: str | pathlib.Path, report: dict) -> dict:
+    """Write a scenario's `report` (a reproduction's metrics, a tuning run's report, the demo's
+    summary) with `write_json`, adding the key `"versions"` (`jaxatt._versions.versions()`:
+    jaxatt, JAX, jaxlib, Equinox, diffrax, optax, NumPy, Python) that the numbers were computed
+    with, and return what a reader of the file gets. A `report` that already has the key is a
+    `ValueError` (the record would be overwritten)."""
+    if "versions" in report:
+        raise ValueError(
+            f"write_report: `report` already has the key 'versions', which write_report "
+            f"records itself; rename that field of the report written to {str(path)!r}."
+        )
+    return write_json(path, {**report, "versions": versions()})

@@ -26,11 +26,12 @@ import optax
 
 from .. import tune as tuning
 from .._text import percent
+from .._versions import versions_sentence
 from ..montecarlo import MonteCarloResult, quaternion_states
 from ..plants import QuaternionState
 from ..simulation import ClosedLoop
 from . import chen2022_two_phase_power as chen
-from ._io import write_json
+from ._io import write_report
 from ._protocol import TuningProblem, require_checkpoint, select_optimizer
 
 
@@ -286,7 +287,7 @@ def run(
         for item in held_out_over_bounds(report[tag]["after"])
     ]
     _write_report(out, report, result.losses, cdfs)
-    return write_json(out / "tuning.json", report)
+    return write_report(out / "tuning.json", report)
 
 
 def _write_report(out: pathlib.Path, report: dict, losses, cdfs) -> None:
@@ -357,6 +358,8 @@ def _write_report(out: pathlib.Path, report: dict, losses, cdfs) -> None:
         "![loss](loss.png)",
         "",
         "![settling time CDF](settling_cdf.png)",
+        "",
+        versions_sentence(),
         "",
     ]
     (out / "report.md").write_text("\n".join(lines))

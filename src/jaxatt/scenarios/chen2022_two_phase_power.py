@@ -45,7 +45,7 @@ from ..signals import Sinusoid
 from ..simulation import ClosedLoop, Saturation, Simulation, Trajectory
 from ..sliding import LinearSurface
 from . import _xia2011
-from ._io import write_json
+from ._io import write_report
 from ._protocol import Scenario
 
 
@@ -238,7 +238,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
             metrics[case][name] = {key: _to_json(v) for key, v in values.items()}
             metrics[case][name]["successful"] = bool(one.successful)
     # The numbers first: a figure that fails (e.g. on a failed run's NaN) leaves them.
-    written = write_json(out / "metrics.json", metrics)
+    written = write_report(out / "metrics.json", metrics)
     _write_figures(out, trajs)
     return written
 

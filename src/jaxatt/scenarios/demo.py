@@ -14,10 +14,10 @@ import time
 import jax.random as jr
 import numpy as np
 
-from .._versions import versions
+from .._versions import versions_sentence
 from ..metrics import AbstractMetric, Chattering, Peak, SettlingTime
 from . import chen2022_tuning, chen2022_two_phase_power as chen
-from ._io import write_json
+from ._io import write_report
 
 
 MC_SAMPLES = 128
@@ -117,9 +117,8 @@ def run(
             "held_out_over_bounds": tuning["held_out_over_bounds"],
         },
         "timings_s": timings,
-        "versions": versions(),
     }
-    written = write_json(out / "summary.json", summary)
+    written = write_report(out / "summary.json", summary)
     _write_report(out, summary, n, tuning)
     return written
 
@@ -226,7 +225,7 @@ def _write_report(out: pathlib.Path, summary: dict, n: int, tuning: dict) -> Non
         "Wall time per stage [s]: "
         + ", ".join(f"{k} {v:.1f}" for k, v in summary["timings_s"].items()),
         "",
-        "Computed with " + ", ".join(f"{k} {v}" for k, v in summary["versions"].items()) + ".",
+        versions_sentence(),
         "",
     ]
     (out / "report.md").write_text("\n".join(lines))

@@ -62,7 +62,7 @@ from ..networks import (
 )
 from ..plants import AgentsState, SingleIntegratorAgents
 from ..simulation import ClosedLoop, Trajectory, simulate
-from ._io import write_json
+from ._io import write_report
 from ._protocol import Scenario
 
 
@@ -451,7 +451,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
     }
     metrics["timings"] = timings
     # The numbers first: a figure that fails (e.g. on a failed run's NaN) leaves them.
-    written = write_json(out / "metrics.json", metrics)
+    written = write_report(out / "metrics.json", metrics)
     _write_figures(out, trajs, exact, metrics)
     return written
 

@@ -46,7 +46,7 @@ from ..rotations import quat_from_axis_angle
 from ..signals import Sinusoid
 from ..simulation import ClosedLoop, EnergyMeter, Simulation, Status, Trajectory, simulate
 from ..sliding import LinearSurface, PDSurface
-from ._io import write_json
+from ._io import write_report
 from ._protocol import Scenario
 
 
@@ -257,7 +257,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
         "monte_carlo": _summary(rest, seed, horizon),
     }
     # The numbers first: a figure that fails (e.g. on a failed run's NaN) leaves them.
-    written = write_json(out / "metrics.json", metrics)
+    written = write_report(out / "metrics.json", metrics)
     _write_figures(out, nominal)
     return written
 

@@ -27,7 +27,7 @@ from ..plants import MRPState, RigidBodyMRP
 from ..rotations import mrp_from_quat
 from ..simulation import ClosedLoop, Saturation, Simulation, Trajectory, simulate
 from . import _xia2011
-from ._io import write_json
+from ._io import write_report
 from ._protocol import Scenario
 
 
@@ -125,7 +125,7 @@ def reproduce(
         "monte_carlo": summary,
     }
     # The numbers first: a figure that fails (e.g. on a failed run's NaN) leaves them.
-    written = write_json(out / "metrics.json", metrics)
+    written = write_report(out / "metrics.json", metrics)
     with plot.style():
         fig = plot.plot_overview(traj, title=TITLE, limit=TORQUE_LIMIT)
         fig.savefig(out / "overview.png")

@@ -84,7 +84,7 @@ from ..rotations import attitude_error_quat
 from ..shaping import ShapedAttitude, ZeroVibration, ZeroVibrationDerivative, ZeroVibrationSmoother
 from ..signals import Sinusoid
 from ..simulation import ClosedLoop, Simulation, Status, Trajectory, integrate, simulate
-from ._io import write_json
+from ._io import write_report
 from ._protocol import Scenario
 
 
@@ -770,7 +770,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
     metrics["observer_floor"] = None if short else observer_floor()
     metrics["claims"] = claims(metrics)
     # The numbers first: a figure that fails (e.g. on a failed run's NaN) leaves them.
-    written = write_json(out / "metrics.json", metrics)
+    written = write_report(out / "metrics.json", metrics)
     _write_figures(out, runs, metrics["observer_floor"])
     return written
 

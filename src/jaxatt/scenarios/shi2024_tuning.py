@@ -34,13 +34,14 @@ import optax
 from jaxtyping import Array, Float, PyTree
 
 from .. import tune as tuning
+from .._versions import versions_sentence
 from ..metrics import convergence_time
 from ..numerics import amax
 from ..plants import FlexibleSloshState
 from ..rotations import attitude_error_quat
 from ..simulation import AbstractClosedLoop, ClosedLoop, Simulation, Status, integrate
 from . import shi2024
-from ._io import write_json
+from ._io import write_report
 from ._protocol import TuningProblem, require_checkpoint, select_optimizer
 
 
@@ -322,7 +323,7 @@ def run(
         }
         for p in points
     }
-    written = write_json(out / "tuning.json", report)
+    written = write_report(out / "tuning.json", report)
     _plot(out, report)
     lines = [
         "# Vibration-aware tuning of Shi 2024's TVSMC and smoother",
@@ -343,6 +344,8 @@ def run(
         "(w = nan: the paper's gains, smoother at 0.6258 rad/s.)",
         "",
         "![trade-off](tradeoff.png)",
+        "",
+        versions_sentence(written["versions"]),
         "",
     ]
     (out / "report.md").write_text("\n".join(lines))

@@ -96,7 +96,7 @@ from ..rotations import attitude_error_quat, mrp_kinematics_matrix, quat_from_mr
 from ..safety import CollisionAvoidance, ConeCorridor, KeepOutSphere
 from ..signals import AbstractSignal
 from ..simulation import ClosedLoop, Simulation, Status, Trajectory
-from ._io import write_json
+from ._io import write_report
 from ._protocol import Scenario
 
 
@@ -485,7 +485,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
         "outside": monte_carlo_summary(_take(on, slice(2 + n, None)), outside),
     }
     # The numbers first: a figure that fails (e.g. on a failed run's NaN) leaves them.
-    written = write_json(out / "metrics.json", metrics)
+    written = write_report(out / "metrics.json", metrics)
     _write_figures(out, on, off, direct, n)
     return written
 

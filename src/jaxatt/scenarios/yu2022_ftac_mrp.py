@@ -75,7 +75,7 @@ from ..observers import SuperTwistingObserver
 from ..plants import MRPState, RigidBodyMRP
 from ..signals import Sinusoid
 from ..simulation import ClosedLoop, Simulation, Status, Trajectory
-from ._io import write_json
+from ._io import write_report
 from ._protocol import Scenario
 
 
@@ -454,7 +454,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
             **{name: monte_carlo_summary(mc[name]) for name in ("FTAC", "FT")},
         }
     # The numbers first: a figure that fails (e.g. on a failed run's NaN) leaves them.
-    written = write_json(out / "metrics.json", metrics)
+    written = write_report(out / "metrics.json", metrics)
     _write_figures(out, trajs, mc)
     return written
 

@@ -50,7 +50,7 @@ from ..references import ConstantPose
 from ..rotations import quat_normalize
 from ..signals import AbstractSignal, Pulse, Sinusoid
 from ..simulation import ClosedLoop, EnergyMeter, Status, Trajectory, simulate
-from ._io import write_json
+from ._io import write_report
 from ._protocol import Scenario
 
 
@@ -335,7 +335,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
         m["claims"] = claims(m)
         metrics[name] = m
     # The numbers first: a figure that fails (e.g. on a failed run's NaN) leaves them.
-    written = write_json(out / "metrics.json", metrics)
+    written = write_report(out / "metrics.json", metrics)
     _write_figures(out, trajs)
     return written
 

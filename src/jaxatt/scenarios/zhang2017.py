@@ -59,7 +59,7 @@ from ..references import ConstantPosition
 from ..signals import Sinusoid
 from ..simulation import ClosedLoop, EnergyMeter, Status, Trajectory, ZeroOrderHold, simulate
 from ..sliding import PDSurface
-from ._io import write_json
+from ._io import write_report
 from ._protocol import Scenario
 
 
@@ -306,7 +306,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
             print("[zhang2017] alpha study")
         metrics["alpha_study"] = alpha_study()
     # The numbers first: a figure that fails (e.g. on a failed run's NaN) leaves them.
-    written = write_json(out / "metrics.json", metrics)
+    written = write_report(out / "metrics.json", metrics)
     _write_figures(out, trajs)
     return written
 

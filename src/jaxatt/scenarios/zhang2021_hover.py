@@ -67,7 +67,7 @@ from ..plants import CoupledAttitudeOrbit, RelativePoseModel, RelativePoseState
 from ..reaching import ConstantRate, Saturation
 from ..signals import Sinusoid, Sum
 from ..simulation import ClosedLoop, Simulation, Status, Trajectory, simulate
-from ._io import write_json
+from ._io import write_report
 from ._protocol import Scenario
 
 
@@ -421,7 +421,7 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
         "orbit_rate": orbit_rate(),
         "short": short,
     }
-    written = write_json(out_dir / "metrics.json", result)
+    written = write_report(out_dir / "metrics.json", result)
     for stem, fig in figures(trajectories).items():
         fig.savefig(out_dir / f"{stem}.png")
         plt.close(fig)

@@ -43,11 +43,12 @@ import numpy as np
 import optax
 
 from .. import tune as tuning
+from .._versions import versions_sentence
 from ..metrics import Absolute, ConvergenceTime, MaxAbs, Peak, SettlingTime
 from ..plants import RelativePoseState
 from ..simulation import ClosedLoop
 from . import zhang2021_hover as hover
-from ._io import write_json
+from ._io import write_report
 from ._protocol import TuningProblem, require_checkpoint, select_optimizer
 
 
@@ -271,7 +272,7 @@ def run(
         report["validation"]["before"], report["validation"]["after"]
     )
     report["held_out_over_bounds"] = held_out_over_bounds(report["validation"]["after"])
-    written = write_json(out / "tuning.json", report)
+    written = write_report(out / "tuning.json", report)
     lines = [
         f"# Tuning Zhang 2021's {problem} envelopes and surface gains with autodiff",
         "",
@@ -317,6 +318,7 @@ def run(
             + ". The penalties hold these bounds on the worst training sample only; a time "
             "reduction bought with them is not one the bounds allow.",
         ]
+    lines += ["", versions_sentence(written["versions"])]
     (out / "report.md").write_text("\n".join(lines) + "\n")
     return written
 
