@@ -1,8 +1,10 @@
 """Print pyproject.toml's runtime dependencies pinned at their floors, for `pip install`.
 
-Every `name>=X` of `[project] dependencies` becomes `name==X` (JAX as `jax[cpu]==X`, which
-brings its jaxlib), so `.ci/oldest` tests the oldest versions jaxatt declares it supports: a
-floor nobody installs is a claim nobody checks. A dependency without a `>=` floor is an error.
+`python .ci/floors.py [EXTRA ...]`: every `name>=X` of `[project] dependencies`, and of each
+optional-dependency group named (`lmi`: cvxpy and Clarabel, which users install for the LMI
+certificates), becomes `name==X` (JAX as `jax[cpu]==X`, which brings its jaxlib), so
+`.ci/oldest` tests the oldest versions jaxatt declares it supports: a floor nobody installs is
+a claim nobody checks. A requirement without a `>=` floor is an error.
 """
 
 import pathlib
@@ -16,9 +18,15 @@ import tomllib
 _FLOOR = re.compile(r"([A-Za-z0-9_.-]+)(\[[^\]]*\])?\s*>=\s*([0-9][0-9A-Za-z.]*)")
 
 
-def floors(pyproject: pathlib.Path) -> list[str]:
+def floors(pyproject: pathlib.Path, extras: list[str]) -> list[str]:
+    project = tomllib.loads(pyproject.read_text())["project"]
+    requirements = list(project["dependencies"])
+    for extra in extras:
+        if extra not in project["optional-dependencies"]:
+            sys.exit(f"floors: pyproject.toml has no optional-dependency group {extra!r}")
+        requirements += project["optional-dependencies"][extra]
     pins = []
-    for requirement in tomllib.loads(pyproject.read_text())["project"]["dependencies"]:
+    for requirement in requirements:
         match = _FLOOR.fullmatch(requirement)
         if match is None:
             sys.exit(f"floors: {requirement!r} has no single '>=' floor to install")
@@ -31,4 +39,4 @@ def floors(pyproject: pathlib.Path) -> list[str]:
 
 if __name__ == "__main__":
     root = pathlib.Path(__file__).resolve().parents[1]
-    print(" ".join(floors(root / "pyproject.toml")))
+    print(" ".join(floors(root / "pyproject.toml", sys.argv[1:])))
