@@ -36,8 +36,7 @@ def versions_line() -> str:
     return f"jaxatt {found['jaxatt']} ({rest})"
 
 
-def versions_sentence(found: dict[str, str] | None = None) -> str:
-    """`Computed with jaxatt X, jax Y, ..., python W.`, for a Markdown report: `found` (a
-    `versions()` dict, as a JSON report recorded it) or, by default, this process's."""
-    found = versions() if found is None else found
-    return "Computed with " + ", ".join(f"{k} {v}" for k, v in found.items()) + "."
+def versions_sentence() -> str:
+    """`Computed with jaxatt X, jax Y, ..., python W.`: `versions()` as the last sentence of a
+    Markdown report (`report.md`), the same record its JSON report holds."""
+    return "Computed with " + ", ".join(f"{k} {v}" for k, v in versions().items()) + "."

@@ -274,6 +274,8 @@ def test_resume_needs_a_checkpoint_and_continues_the_weights_that_have_one(tmp_p
     assert resumed == {"checkpoint_w0.eqx": True, "checkpoint_w100.eqx": False}
     assert report == json.loads((tmp_path / "tuning.json").read_text())  # scenarios/_io.py
     assert report["points"][0]["convergence_time"] is None
+    assert report["versions"]["jax"] == jax.__version__  # what computed it, in both files
+    assert f"jax {jax.__version__}," in (tmp_path / "report.md").read_text()
     assert [p["validated_step"] for p in report["points"]] == [1, 1]  # Adam: the last step
     # `optimizer="lbfgs"` (`jaxatt tune shi2024 --optimizer lbfgs`) reaches every weight's run,
     # and each point holds its best step's gains (a line search's last point can be its worst).

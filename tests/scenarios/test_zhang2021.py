@@ -247,6 +247,9 @@ def test_the_tuning_report_says_when_tuning_stopped_and_never_scores_a_failure(
     assert "12 of 30 Adam steps" in text and f"**Stopped early:** {stopped}" in text
     assert "not compared" in text and "n/a" not in text
     assert "NaN" not in (tmp_path / "tuning.json").read_text()
+    # What computed it, in both files (a stopped run's report too).
+    assert report["versions"]["jax"] == jax.__version__
+    assert text.rstrip().endswith(f"python {report['versions']['python']}.")
 
 
 def test_the_tuning_report_names_held_out_peaks_above_the_penalties_bounds(tmp_path, monkeypatch):

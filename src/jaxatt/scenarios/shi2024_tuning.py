@@ -345,7 +345,7 @@ def run(
         "",
         "![trade-off](tradeoff.png)",
         "",
-        versions_sentence(written["versions"]),
+        versions_sentence(),
         "",
     ]
     (out / "report.md").write_text("\n".join(lines))

@@ -318,7 +318,7 @@ def run(
             + ". The penalties hold these bounds on the worst training sample only; a time "
             "reduction bought with them is not one the bounds allow.",
         ]
-    lines += ["", versions_sentence(written["versions"])]
+    lines += ["", versions_sentence()]
     (out / "report.md").write_text("\n".join(lines) + "\n")
     return written
 
