@@ -14,13 +14,15 @@ PACKAGES = ("jaxatt", "jax", "jaxlib", "equinox", "diffrax", "optax", "numpy")
 """The distributions whose versions are reported, jaxatt first."""
 
 
-def versions() -> dict[str, str]:
-    """`{distribution: version}` for `PACKAGES` (jaxatt's is `jaxatt.__version__`; "not
-    installed" where one is missing), and the Python version under `"python"`."""
+def versions(also: tuple[str, ...] = ()) -> dict[str, str]:
+    """`{distribution: version}` for `PACKAGES` and then the distributions `also` (those a
+    particular result depends on besides, e.g. the LMI solvers `("cvxpy", "clarabel")`);
+    jaxatt's is `jaxatt.__version__`, "not installed" where one is missing; and the Python
+    version under `"python"`."""
     from . import __version__
 
     found = {"jaxatt": __version__}
-    for name in PACKAGES[1:]:
+    for name in (*PACKAGES[1:], *also):
         try:
             found[name] = importlib.metadata.version(name)
         except importlib.metadata.PackageNotFoundError:

@@ -35,6 +35,12 @@ def test_reproduce_short_mode_and_the_paper_claims(tmp_path):
     # The returned dict is the file (scenarios/_io.py).
     assert json.loads((tmp_path / "metrics.json").read_text()) == m
     assert KEYS <= set(m)
+    # The LMI bounds are the solvers' numbers: their versions are recorded with JAX's.
+    import importlib.metadata
+
+    for name in ("cvxpy", "clarabel"):
+        assert m["versions"][name] == importlib.metadata.version(name)
+    assert list(m["versions"])[-3:] == ["cvxpy", "clarabel", "python"]
     for name in ("consensus_periodic", "consensus_random", "consensus_printed", "spectral_radius"):
         assert (tmp_path / f"{name}.png").stat().st_size > 10_000
     assert REGISTRY["duan2024"] is duan.SCENARIO

@@ -65,6 +65,10 @@ def test_write_report_records_the_versions(tmp_path):
     assert set(found) == {"jaxatt", "jax", "jaxlib", "equinox", "diffrax", "optax", "numpy"} | {
         "python"
     }
+    # A report whose numbers come from another library too names it; a missing one says so.
+    other = _io.write_report(tmp_path / "o.json", {}, also=("pytest", "no-such-distribution"))
+    assert other["versions"]["pytest"] == pytest.__version__
+    assert other["versions"]["no-such-distribution"] == "not installed"
     with pytest.raises(ValueError, match="already has the key 'versions'"):
         _io.write_report(tmp_path / "n.json", {"versions": "mine"})
     assert not (tmp_path / "n.json").exists()

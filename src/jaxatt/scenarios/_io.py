@@ -36,15 +36,16 @@ def write_json(path: str | pathlib.Path, tree):
     return json.loads(text)
 
 
-def write_report(path: str | pathlib.Path, report: dict) -> dict:
+def write_report(path: str | pathlib.Path, report: dict, *, also: tuple[str, ...] = ()) -> dict:
     """Write a scenario's `report` (a reproduction's metrics, a tuning run's report, the demo's
-    summary) with `write_json`, adding the key `"versions"` (`jaxatt._versions.versions()`:
-    jaxatt, JAX, jaxlib, Equinox, diffrax, optax, NumPy, Python) that the numbers were computed
-    with, and return what a reader of the file gets. A `report` that already has the key is a
-    `ValueError` (the record would be overwritten)."""
+    summary) with `write_json`, adding the key `"versions"` (`jaxatt._versions.versions(also)`:
+    jaxatt, JAX, jaxlib, Equinox, diffrax, optax, NumPy, then the distributions `also` that
+    this report's numbers depend on besides, such as the LMI solvers, then Python), and return
+    what a reader of the file gets. A `report` that already has the key is a `ValueError` (the
+    record would be overwritten)."""
     if "versions" in report:
         raise ValueError(
             f"write_report: `report` already has the key 'versions', which write_report "
             f"records itself; rename that field of the report written to {str(path)!r}."
         )
-    return write_json(path, {**report, "versions": versions()})
+    return write_json(path, {**report, "versions": versions(also)})

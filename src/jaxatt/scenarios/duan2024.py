@@ -451,7 +451,8 @@ def reproduce(out_dir: str | pathlib.Path, *, short: bool = False, progress: boo
     }
     metrics["timings"] = timings
     # The numbers first: a figure that fails (e.g. on a failed run's NaN) leaves them.
-    written = write_report(out / "metrics.json", metrics)
+    # The LMI bounds are cvxpy's and Clarabel's numbers: their versions are recorded too.
+    written = write_report(out / "metrics.json", metrics, also=("cvxpy", "clarabel"))
     _write_figures(out, trajs, exact, metrics)
     return written
 
