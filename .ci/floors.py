@@ -18,13 +18,13 @@ import tomllib
 _FLOOR = re.compile(r"([A-Za-z0-9_.-]+)(\[[^\]]*\])?\s*>=\s*([0-9][0-9A-Za-z.]*)")
 
 
-def floors(pyproject: pathlib.Path, extras: list[str]) -> list[str]:
+def floors(pyproject: pathlib.Path, groups: list[str]) -> list[str]:
     project = tomllib.loads(pyproject.read_text())["project"]
     requirements = list(project["dependencies"])
-    for extra in extras:
-        if extra not in project["optional-dependencies"]:
-            sys.exit(f"floors: pyproject.toml has no optional-dependency group {extra!r}")
-        requirements += project["optional-dependencies"][extra]
+    for group in groups:
+        if group not in project["optional-dependencies"]:
+            sys.exit(f"floors: pyproject.toml has no optional-dependency group {group!r}")
+        requirements += project["optional-dependencies"][group]
     pins = []
     for requirement in requirements:
         match = _FLOOR.fullmatch(requirement)

@@ -224,7 +224,7 @@ def test_small_products_stay_out_of_the_library_by_default():
         own = lowered.compile(Performance().compiler_options("cpu")).as_text()
         assert "__ynn_fusion" not in own
         # jaxlib 0.9's XLA knows the option but leaves this product out of YNNPACK anyway
-        # (measured with jaxlib 0.9.2, which SciPy 1.13, the test extra's floor, brings).
+        # (measured with jaxlib 0.9.2, the newest pip installs beside SciPy 1.13).
         if jax.__version_info__ >= (0, 10):
             assert "__ynn_fusion" in library
 

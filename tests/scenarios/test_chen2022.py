@@ -388,7 +388,6 @@ def test_the_demo_reports_the_worst_case_not_the_slowest_settled_sample(tmp_path
             "held_out_over_bounds": [],
         },
         "timings_s": {},
-        "versions": {"jax": "0.0"},
     }
     demo._write_report(tmp_path, summary, 4, tuning)
     report = (tmp_path / "report.md").read_text()

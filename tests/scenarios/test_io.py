@@ -62,9 +62,8 @@ def test_write_report_records_the_versions(tmp_path):
     assert found["jaxatt"] == jaxatt.__version__
     assert found["jax"] == jax.__version__
     assert found["python"] == platform.python_version()
-    assert set(found) == {"jaxatt", "jax", "jaxlib", "equinox", "diffrax", "optax", "numpy"} | {
-        "python"
-    }
+    names = {"jaxatt", "jax", "jaxlib", "equinox", "diffrax", "optax", "numpy", "python"}
+    assert set(found) == names
     # A report whose numbers come from another library too names it; a missing one says so.
     other = _io.write_report(tmp_path / "o.json", {}, also=("pytest", "no-such-distribution"))
     assert other["versions"]["pytest"] == pytest.__version__
