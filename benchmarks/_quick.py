@@ -71,15 +71,18 @@ class UserProgram:
     compiled function by the batch size, like `monte_carlo`.
     """
 
-    def __init__(self, fn, performance: Performance | None = None):
+    def __init__(self, fn, performance: Performance | None = None, batch_size: int | None = None):
         self.fn = fn
         self.performance = Performance() if performance is None else performance
+        self.batch_size = batch_size
         self._jits = {}
 
     def options(self, x0s) -> dict:
         if not hasattr(self.performance, "compiler_options"):
             return {}  # a jaxatt from before the option (bench_defaults' baseline worker)
         n = jax.tree.leaves(x0s)[0].shape[0]
+        if self.batch_size is not None:  # monte_carlo resolves on the samples run at once
+            n = min(n, self.batch_size)
         return self.performance.resolve(n).compiler_options()
 
     def _jit(self, x0s):
@@ -222,22 +225,26 @@ def initial_states(seed: int, n: int, dtype) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(x0.q, dtype=dtype), np.asarray(x0.omega, dtype=dtype)
 
 
-def make_jaxatt(call: str, horizon: float, dt: float, save_every: int):
+def make_jaxatt(
+    call: str, horizon: float, dt: float, save_every: int, batch_size: int | None = None
+):
     """A jitted `run(loop, x0s) -> (final, successful, result)` through jaxatt (JAXATT_CALLS).
 
     `final`: the closed-loop states at `horizon`, shape (n, 11) (columns
     `_reference.STATE_NAMES`); `successful`: (n,) booleans; `result`: the
-    `MonteCarloResult` (default metrics, status, kept trajectories).
+    `MonteCarloResult` (default metrics, status, kept trajectories). `batch_size`: passed to
+    `monte_carlo` (`lax.map` over chunks of that many samples; None, the default, runs the
+    whole batch at once).
     """
     if call not in JAXATT_CALLS:
         raise ValueError(f"unknown jaxatt call {call!r}; one of {sorted(JAXATT_CALLS)}")
     if call == "monte_carlo_default":
 
         def run_default(loop, x0s):
-            out = monte_carlo(loop, x0s, 0.0, horizon, dt=dt)
+            out = monte_carlo(loop, x0s, 0.0, horizon, dt=dt, batch_size=batch_size)
             return None, out.successful, out
 
-        return UserProgram(run_default)
+        return UserProgram(run_default, batch_size=batch_size)
     performance = Performance(scalarize=False) if call == "monte_carlo_plain" else None
 
     def final_state(states: ClosedLoopState) -> jax.Array:
@@ -254,11 +261,12 @@ def make_jaxatt(call: str, horizon: float, dt: float, save_every: int):
             dt=dt,
             save_every=save_every,
             keep_trajectories=True,
+            batch_size=batch_size,
             performance=performance,
         )
         return final_state(out.trajectories.states), out.successful, out
 
-    return UserProgram(run, performance)
+    return UserProgram(run, performance, batch_size)
 
 
 def run_time(f, repeat: int) -> float:

@@ -43,6 +43,12 @@ process's step (cut from the program of `batch / N` samples as above), so its ra
 fractions of the derived peak are of the whole machine. Checked: the processes' final states
 equal the one-process program's (1e-9; float32 1e-4).
 
+**Chunks** (`--batch-size B`): the timed jaxatt runs pass `batch_size=B` to `monte_carlo`,
+which runs each process's batch as a `lax.map` over chunks of B samples (one chunk's operands
+can then stay in the L2 cache). The step's counts are still cut from the unchunked program of
+the same batch: the chunked program runs the same per-sample operations on B samples at a time
+(so per state-step the counts are the same), and its map loop would hide the step loop.
+
 **Achieved FLOP/s** = FLOPs per batch step x steps / run time over `--horizon` (compile timed
 apart; one warm-up call, then the min of `timeit.repeat(..., number=1, repeat=R)`), executed
 and useful (written). The run includes the saves (11 of them), which the per-step count leaves
@@ -132,12 +138,21 @@ def parse_args(argv=None) -> argparse.Namespace:
         default=1,
         help="also run each jaxatt program as this many processes, one pinned to each core",
     )
+    p.add_argument(
+        "--batch-size",
+        type=int,
+        default=None,
+        help="monte_carlo's batch_size for the timed jaxatt runs (lax.map chunks of that many "
+        "samples per process; default: the whole batch at once)",
+    )
     p.add_argument("--pinned-worker", nargs=5, help=argparse.SUPPRESS)
     common.add_common_arguments(p)
     args = p.parse_args(argv)
     common.finish_arguments(p, args, [args.horizon], "roofline.json")
     if min(args.batches) < 1 or args.cost_steps < 2 or args.matmul_size < 1:
         p.error("--batches must be positive, --cost-steps at least 2")
+    if args.batch_size is not None and args.batch_size < 1:
+        p.error(f"--batch-size must be a positive integer, got {args.batch_size}")
     if args.processes < 1 or any(b % args.processes for b in args.batches):
         p.error(f"--processes must be positive and divide every batch, got {args.processes}")
     return args
@@ -352,7 +367,7 @@ def measure_program(name, loop, x0s, args, peak, measured, *, body_once: bool):
     if name.startswith("jaxatt"):
         call = name.split()[1]
         make = common.montecarlo.make_jaxatt
-        timed = make(call, args.horizon, dt, common.default_save_every(steps))
+        timed = make(call, args.horizon, dt, common.default_save_every(steps), args.batch_size)
         inputs = (loop, x0s)
         short, long = make(call, k * dt, dt, k), make(call, 2 * k * dt, dt, 2 * k)
     else:
@@ -360,6 +375,8 @@ def measure_program(name, loop, x0s, args, peak, measured, *, body_once: bool):
         inputs = (x0s.q, x0s.omega)
         short, long = ref.make_hand_scan(k, dt, dtype), ref.make_hand_scan(2 * k, dt, dtype)
     row = {"program": name, "batch": batch, "steps": steps}
+    if name.startswith("jaxatt"):
+        row["batch_size"] = args.batch_size
     cost = step_cost(short, inputs, k)
     if "error" in cost:
         print(f"  {name:>24}, batch {batch:>6}: {cost['error']}")
@@ -410,7 +427,7 @@ def pinned_worker(args) -> int:
     size = batch // args.processes
     x0s = _slice(pool, part * size, (part + 1) * size)
     timed = common.montecarlo.make_jaxatt(
-        call, args.horizon, args.dt, common.default_save_every(steps)
+        call, args.horizon, args.dt, common.default_save_every(steps), args.batch_size
     )
     start = time.perf_counter()
     compiled = timed.lower(loop, x0s).compile()
@@ -484,7 +501,7 @@ def measure_pinned(name, loop, x0s, args, peak, measured, reference_final):
     short = common.montecarlo.make_jaxatt(call, k * args.dt, args.dt, k)
     cost = step_cost(short, (loop, _slice(x0s, 0, batch // n)), k)
     row = {"program": f"{name}, {n} pinned processes", "batch": batch, "steps": steps}
-    row.update(processes=n, batch_per_process=batch // n)
+    row.update(processes=n, batch_per_process=batch // n, batch_size=args.batch_size)
     if "error" in cost:
         return {**row, "error": cost["error"]}
     timing = time_pinned(call, batch, args)

@@ -43,7 +43,21 @@ for line in gpu_lines:
         gpu_runs.append({"batches": args.batches, "horizon": args.horizon, "dtype": args.dtype})
     except SystemExit as stop:
         gpu_runs.append(f"exit {stop.code}")
-print(json.dumps({"help": report, "gpu_runs": gpu_runs}))
+# monte_carlo's batch_size reaches the programs the benchmarks time: their compiler options
+# are those of the samples run at once (a chunk), and bench_roofline refuses a chunk of 0.
+import _quick
+batch = {"q": __import__("numpy").zeros((2000, 4))}  # options read the first leaf's length
+options = {
+    str(size): _quick.make_jaxatt("monte_carlo", 0.01, 1e-3, 10, size).options(batch)
+    for size in (None, 1500, 500)
+}
+roofline = runpy.run_path(f"{bench_dir}/bench_roofline.py", run_name="bench_roofline")
+try:
+    roofline["parse_args"](["--batch-size", "0"])
+    refused = "parsed"
+except SystemExit as stop:
+    refused = f"exit {stop.code}"
+print(json.dumps({"help": report, "gpu_runs": gpu_runs, "options": options, "refused": refused}))
 """
 
 
@@ -86,6 +100,21 @@ def test_the_prepared_gpu_run_passes_arguments_bench_montecarlo_accepts(child_re
         {"batches": [1000, 10000, 100000, 1000000], "horizon": 2.0, "dtype": dtype}
         for dtype in ("float32", "float64")
     ]
+
+
+def test_the_benchmarks_chunked_programs_compile_with_the_chunks_options(child_report):
+    # bench_roofline.py --batch-size: the chunked program is compiled with the options
+    # monte_carlo picks for a chunk (512-bit vectors for a scalarized loop from 1000 samples
+    # at once, none below), not for the whole batch.
+    from jaxatt.simulation import Performance
+
+    def expected(n):
+        return json.loads(json.dumps(Performance().resolve(n).compiler_options()))
+
+    options = child_report["options"]
+    assert options["None"] == options["1500"] == expected(2000) != expected(500)
+    assert options["500"] == expected(500)
+    assert child_report["refused"] == "exit 2"
 
 
 def test_bench_quick_prints_a_checked_table():
