@@ -12,7 +12,10 @@ Under SLURM or Open MPI leave the three options out: `jax.distributed.initialize
 from the environment. With `--num-processes 1` the script runs in one process without
 `jax.distributed`. On one multi-core CPU, start each process under `taskset -c K` (its own
 core): the pinned processes ran the batch 1.42-1.90x faster than one process on all the
-cores (`benchmarks/bench_devices.py`, docs/scaling.md). Process 0 prints the summary table
+cores (`benchmarks/bench_devices.py`, docs/scaling.md); with `--batch-size 1024` and
+`XLA_FLAGS=--xla_backend_extra_options=xla_cpu_use_multi_output_fusion` set for each of them,
+the scalarized step ran another 1.29-1.33x faster (benchmarks/README.md, "Multi-output fusion
+in L2-sized chunks"). Process 0 prints the summary table
 and, with `--json PATH`, writes every sample's metrics and status.
 
 `tests/montecarlo/test_distributed.py` runs this file in two processes on one machine (CPU,
@@ -33,6 +36,11 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument("--horizon", type=float, default=30.0, help="simulated time [s]")
     parser.add_argument("--dt", type=float, default=1e-3, help="RK4 step [s]")
     parser.add_argument("--save-every", type=int, default=1000, help="steps between saves")
+    parser.add_argument(
+        "--batch-size",
+        type=int,
+        help="samples each device runs at once (lax.map chunks; default: its whole share)",
+    )
     parser.add_argument("--json", help="process 0 writes the per-sample results here")
     return parser.parse_args(argv)
 
@@ -64,7 +72,13 @@ def main(argv=None) -> None:
     n = args.samples
     x0s = QuaternionState(mc.attitudes_within(k_q, n, 1.0), mc.rates_in_ball(k_w, n, 0.05))
     result = mc.monte_carlo(
-        chen.build("M1"), x0s, 0.0, args.horizon, dt=args.dt, save_every=args.save_every
+        chen.build("M1"),
+        x0s,
+        0.0,
+        args.horizon,
+        dt=args.dt,
+        save_every=args.save_every,
+        batch_size=args.batch_size,
     )
     # Gathering a batch sharded over several processes is a collective: every process must
     # call it (`result.table()` and `result.summary()` gather too), only process 0 prints.
