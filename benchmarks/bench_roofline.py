@@ -84,6 +84,13 @@ The roofline in one process per core (about 5 minutes here; `--batches` must be 
     python benchmarks/bench_roofline.py --batches 1024 16384 --jaxatt-calls monte_carlo \
         --processes 2
 
+The same with each process's batch in chunks of 1024 under XLA's multi-output fusion (the
+configuration that reached 22-23 % of the derived peak on 2026-12-07; about 2.5 minutes):
+
+    XLA_FLAGS=--xla_backend_extra_options=xla_cpu_use_multi_output_fusion \
+        python benchmarks/bench_roofline.py --batches 16384 --jaxatt-calls monte_carlo \
+        --processes 2 --batch-size 1024
+
 A small run (about 1.5 minutes on a loaded 2-core machine):
 
     python benchmarks/bench_roofline.py --batches 64 --horizon 0.2 --bandwidth-mib 64 \
