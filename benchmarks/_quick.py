@@ -80,10 +80,12 @@ class UserProgram:
     def options(self, x0s) -> dict:
         if not hasattr(self.performance, "compiler_options"):
             return {}  # a jaxatt from before the option (bench_defaults' baseline worker)
+        from jaxatt.simulation import samples_at_once  # after the guard: not in old jaxatts
+
+        # monte_carlo resolves the options on the samples one device runs at once
         n = jax.tree.leaves(x0s)[0].shape[0]
-        if self.batch_size is not None:  # monte_carlo resolves on the samples run at once
-            n = min(n, self.batch_size)
-        return self.performance.resolve(n).compiler_options()
+        at_once = samples_at_once(n, batch_size=self.batch_size, devices=len(jax.devices()))
+        return self.performance.resolve(at_once).compiler_options()
 
     def _jit(self, x0s):
         options = self.options(x0s)

@@ -46,7 +46,8 @@ for line in gpu_lines:
 # monte_carlo's batch_size reaches the programs the benchmarks time: their compiler options
 # are those of the samples run at once (a chunk), and bench_roofline refuses a chunk of 0.
 import _quick
-batch = {"q": __import__("numpy").zeros((2000, 4))}  # options read the first leaf's length
+import numpy as np
+batch = {"q": np.zeros((2000, 4))}  # options read the first leaf's length
 options = {
     str(size): _quick.make_jaxatt("monte_carlo", 0.01, 1e-3, 10, size).options(batch)
     for size in (None, 1500, 500)
