@@ -17,6 +17,11 @@ Usage (from the repository root):
 
     python benchmarks/bench_single.py                      # -> results/single.json
     python benchmarks/bench_single.py --families chen2022_m1 --save-every 1 100 1000
+    python benchmarks/bench_single.py --small-loop-kernels --out results/small_loops.json
+
+`--small-loop-kernels` compares this checkout with itself instead: the baseline worker under
+XLA's default small-loop threshold, the new one after `jaxatt.enable_small_loop_kernels()`
+(XLA:CPU compiles small time loops as one kernel; `XLA_FLAGS` must not set the threshold).
 """
 
 import argparse
@@ -24,6 +29,7 @@ import json
 import os
 import pathlib
 import sys
+import tempfile
 import time
 
 from _baseline import run_both, run_version, write_result
@@ -42,11 +48,25 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--rtol", type=float, default=1e-12, help="final states, relative")
     p.add_argument("--baseline-commit", default="49ba081", help="git revision to compare to")
     p.add_argument("--out", default=str(HERE / "results" / "single.json"))
+    p.add_argument(
+        "--small-loop-kernels",
+        action="store_true",
+        help="this checkout without, then with jaxatt.enable_small_loop_kernels()",
+    )
     p.add_argument("--worker", help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.steps < 1 or args.repeat < 1 or any(k < 1 or args.steps % k for k in args.save_every):
         p.error("--steps and --repeat must be positive and every --save-every divide --steps")
+    if (
+        args.small_loop_kernels
+        and not args.worker
+        and _SMALL_LOOP_OPTION in os.environ.get("XLA_FLAGS", "")
+    ):
+        p.error(f"--small-loop-kernels: XLA_FLAGS already sets {_SMALL_LOOP_OPTION}")
     return args
+
+
+_SMALL_LOOP_OPTION = "xla_cpu_small_while_loop_byte_threshold"
 
 
 def worker(args) -> None:
@@ -55,10 +75,12 @@ def worker(args) -> None:
     import jax
     import numpy as np
 
+    import jaxatt
+
+    threshold = jaxatt.enable_small_loop_kernels() if args.small_loop_kernels else None
     jax.config.update("jax_enable_x64", True)
     from bench_scalarize_families import family
 
-    import jaxatt
     from jaxatt import simulate
 
     rows = []
@@ -106,17 +128,28 @@ def worker(args) -> None:
     info = {
         "jaxatt": str(pathlib.Path(jaxatt.__file__).parent),
         "jax": jax.__version__,
+        "small_loop_threshold": threshold,
         "load_average": os.getloadavg(),
         "rows": rows,
     }
     pathlib.Path(args.worker).write_text(json.dumps(info))
 
 
-def run_worker(args, src: pathlib.Path, out: pathlib.Path) -> dict:
+def run_worker(args, src: pathlib.Path, out: pathlib.Path, *, small_loops: bool = False) -> dict:
     cmd = ["--worker", str(out), "--families", *args.families, "--steps", str(args.steps)]
     cmd += ["--save-every", *map(str, args.save_every), "--repeat", str(args.repeat)]
+    cmd += ["--small-loop-kernels"] if small_loops else []
     run_version(HERE / "bench_single.py", cmd, src)
     return json.loads(out.read_text())
+
+
+def run_small_loops(args) -> tuple[dict, dict]:
+    """This checkout under XLA's default small-loop threshold, then with the one-kernel loops."""
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = pathlib.Path(tmp)
+        base = run_worker(args, HERE.parent / "src", tmp / "base.json")
+        new = run_worker(args, HERE.parent / "src", tmp / "new.json", small_loops=True)
+    return base, new
 
 
 def main(args) -> int:
@@ -126,11 +159,17 @@ def main(args) -> int:
         return 0
     import numpy as np
 
-    base, new = run_both(run_worker, args, args.baseline_commit)
+    if args.small_loop_kernels:
+        base, new = run_small_loops(args)
+        baseline = "XLA's default small-loop threshold"
+        against = f"jaxatt.enable_small_loop_kernels() ({new['small_loop_threshold']} bytes)"
+    else:
+        base, new = run_both(run_worker, args, args.baseline_commit)
+        baseline, against = args.baseline_commit, "this checkout"
     print()
     print(
-        f"One trajectory, {args.steps} steps, float64; baseline {args.baseline_commit} against "
-        "this checkout (us per step: min of the warm calls; first: trace + compile + run)"
+        f"One trajectory, {args.steps} steps, float64; baseline {baseline} against {against} "
+        "(us per step: min of the warm calls; first: trace + compile + run)"
     )
     print(
         " family             | save_every | baseline us | new us | speed-up | baseline first s "
@@ -161,7 +200,7 @@ def main(args) -> int:
         )
     result = {
         "command": " ".join(sys.argv),
-        "baseline_commit": args.baseline_commit,
+        "baseline_commit": None if args.small_loop_kernels else args.baseline_commit,
         "steps": args.steps,
         "baseline": {k: v for k, v in base.items() if k != "rows"},
         "new": {k: v for k, v in new.items() if k != "rows"},

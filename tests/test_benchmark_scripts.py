@@ -8,11 +8,14 @@ lent an accelerator (`benchmarks/gpu_run.sh`) is checked without a GPU: the argu
 to `bench_montecarlo.py` must parse there, in the same interpreter."""
 
 import json
+import os
 import pathlib
 import subprocess
 import sys
 
 import pytest
+
+from jaxatt._small_loops import OPTION
 
 
 BENCHMARKS = pathlib.Path(__file__).resolve().parents[1] / "benchmarks"
@@ -131,3 +134,26 @@ def test_bench_quick_prints_a_checked_table():
     assert "jaxatt/scan" in out and "float64" in out
     rows = [line for line in out.splitlines() if line.strip().startswith("8 |")]
     assert len(rows) == 1
+
+
+def test_bench_single_compares_the_one_kernel_loops_with_xlas_default(tmp_path):
+    # Both workers run this checkout, the second after jaxatt.enable_small_loop_kernels(); a
+    # process whose XLA_FLAGS already set the threshold is refused (the baseline would not be
+    # XLA's default).
+    out = tmp_path / "small.json"
+    command = [sys.executable, str(BENCHMARKS / "bench_single.py"), "--small-loop-kernels"]
+    command += ["--families", "rigid_body_pd", "--steps", "20", "--save-every", "20"]
+    command += ["--repeat", "1", "--out", str(out)]
+    env = {k: v for k, v in os.environ.items() if not (k == "XLA_FLAGS" and OPTION in v)}
+    done = subprocess.run(command, capture_output=True, text=True, timeout=300, env=env)
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    result = json.loads(out.read_text())
+    assert result["ok"] and result["baseline_commit"] is None
+    assert result["baseline"]["small_loop_threshold"] is None
+    assert result["new"]["small_loop_threshold"] == 1_000_000
+    assert [row["family"] for row in result["rows"]] == ["rigid_body_pd"]
+    flags = f"--xla_backend_extra_options={OPTION}=5000"
+    refused = subprocess.run(
+        command, capture_output=True, text=True, timeout=300, env=dict(env, XLA_FLAGS=flags)
+    )
+    assert refused.returncode == 2 and f"XLA_FLAGS already sets {OPTION}" in refused.stderr

@@ -11,7 +11,9 @@ only.
 
 jaxatt never changes JAX's configuration on import: enable float64 yourself, first, when you need it
 (`jax.config.update("jax_enable_x64", True)`), as the CLI, notebooks and tests do, and the
-persistent compilation cache with `jaxatt.enable_compilation_cache()` (the CLI turns it on).
+persistent compilation cache with `jaxatt.enable_compilation_cache()` (the CLI turns it on), and
+XLA:CPU's one-kernel small loops with `jaxatt.enable_small_loop_kernels()` (before the first
+computation).
 """
 
 import importlib
@@ -40,6 +42,7 @@ from ._compilation_cache import (
     disable_compilation_cache as disable_compilation_cache,
     enable_compilation_cache as enable_compilation_cache,
 )
+from ._small_loops import enable_small_loop_kernels as enable_small_loop_kernels
 from .simulation import (
     AbstractClosedLoop as AbstractClosedLoop,
     ClosedLoop as ClosedLoop,

@@ -1,0 +1,134 @@
+"""`jaxatt.enable_small_loop_kernels`: XLA:CPU compiles the time loops of one trajectory as one
+kernel each, with the numbers of XLA's default threshold (to rounding: the
+same program, other machine code; 1e-12 relative to each state's largest entry leaves room for
+a few ulps amplified over 1000 RK4 steps of a sliding motion). A call that comes too late, a
+bad threshold and a threshold the user set in `XLA_FLAGS` are each what the docstring says.
+
+The process-wide option can only be set before JAX's CPU backend starts, so the two
+configurations run in child processes (each under this process's other compiler options)."""
+
+import json
+import os
+import subprocess
+import sys
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxatt
+from jaxatt._small_loops import OPTION, threshold_in_flags
+
+
+SCRIPT = """
+import json, os, sys
+import jax
+import jaxatt
+threshold = jaxatt.enable_small_loop_kernels() if sys.argv[1] == "on" else None
+flags = os.environ.get("XLA_FLAGS", "")
+jax.config.update("jax_enable_x64", True)
+import equinox as eqx
+import numpy as np
+from jaxatt import simulate
+from jaxatt.scenarios import chen2022_two_phase_power as chen
+
+loop = chen.build("M1")
+run = eqx.filter_jit(lambda loop, x0: simulate(loop, x0, 0.0, 1.0, dt=1e-3, save_every=100))
+compiled = run.lower(loop, chen.initial_state("D1")).compile().compiled.as_text()
+one = run(loop, chen.initial_state("D1"))
+leaves = lambda states: [np.asarray(leaf) for leaf in jax.tree.leaves(states)]
+print(json.dumps({
+    "threshold": threshold,
+    "flags": flags,
+    "small_calls": compiled.count('xla_cpu_small_call="true"'),
+    "one": np.concatenate([leaf[-1].ravel() for leaf in leaves(one.states)]).tolist(),
+    "one_status": int(one.status),
+}))
+"""
+
+
+def _flags_without_the_option() -> str:
+    return " ".join(
+        token for token in os.environ.get("XLA_FLAGS", "").split() if OPTION not in token
+    )
+
+
+@pytest.fixture(scope="module")
+def children():
+    env = dict(os.environ, XLA_FLAGS=_flags_without_the_option())
+    out = {}
+    for mode in ("off", "on"):
+        done = subprocess.run(
+            [sys.executable, "-c", SCRIPT, mode],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        assert done.returncode == 0, done.stderr[-3000:]
+        out[mode] = json.loads(done.stdout.strip().splitlines()[-1])
+    return out
+
+
+def _close(a, b) -> None:
+    a, b = np.asarray(a), np.asarray(b)
+    scale = np.max(np.abs(a), axis=-1, keepdims=True)
+    np.testing.assert_array_less(np.abs(a - b) / scale, 1e-12)
+
+
+def test_the_time_loop_compiles_as_one_kernel_with_the_same_numbers(children):
+    on, off = children["on"], children["off"]
+    assert on["threshold"] == jaxatt._small_loops.DEFAULT_BYTES_PER_ITERATION == 1_000_000
+    assert on["flags"].endswith(f"--xla_backend_extra_options={OPTION}=1000000")
+    assert threshold_in_flags(on["flags"]) == 1_000_000
+    # Under XLA's default threshold no loop of the trajectory is folded; with the option on,
+    # the time loops are (the step loop and the loop over save intervals).
+    assert off["small_calls"] == 0
+    assert on["small_calls"] >= 1
+    assert on["one_status"] == off["one_status"] == 0
+    _close(on["one"], off["one"])
+
+
+def test_a_call_after_the_backend_started_raises_and_leaves_xla_flags_as_they_were(monkeypatch):
+    monkeypatch.setenv("XLA_FLAGS", _flags_without_the_option())
+    before = os.environ["XLA_FLAGS"]
+    jnp.zeros(1).block_until_ready()  # this process's backend has started
+    with pytest.raises(RuntimeError, match="before the first JAX computation"):
+        jaxatt.enable_small_loop_kernels()
+    assert os.environ["XLA_FLAGS"] == before
+    monkeypatch.delenv("XLA_FLAGS")
+    with pytest.raises(RuntimeError, match="had already started"):
+        jaxatt.enable_small_loop_kernels()
+    assert "XLA_FLAGS" not in os.environ
+
+
+# (Floats, strings and None are refused by the suite's runtime type checks before the body's own
+# check, which refuses them too for a user without them.)
+@pytest.mark.parametrize("bad", [1024, 4095, 0, -1, True])
+def test_a_bad_threshold_is_refused_before_anything_changes(bad, monkeypatch):
+    monkeypatch.setenv("XLA_FLAGS", "--xla_cpu_use_fusion_emitters=false")
+    with pytest.raises(ValueError, match="`bytes_per_iteration` must be an integer of at least"):
+        jaxatt.enable_small_loop_kernels(bad)
+    assert os.environ["XLA_FLAGS"] == "--xla_cpu_use_fusion_emitters=false"
+
+
+def test_a_threshold_set_in_xla_flags_is_kept(monkeypatch):
+    # Below 4096 bytes the probe cannot tell the setting from XLA's default: kept, unchecked.
+    flags = f"--xla_backend_extra_options=xla_cpu_use_multi_output_fusion,{OPTION}=2048"
+    monkeypatch.setenv("XLA_FLAGS", flags)
+    assert jaxatt.enable_small_loop_kernels() == 2048
+    assert os.environ["XLA_FLAGS"] == flags
+    # From 4096 on it is checked: this process's backend started without it.
+    monkeypatch.setenv("XLA_FLAGS", f"--xla_backend_extra_options={OPTION}=50000")
+    with pytest.raises(RuntimeError, match=f"XLA_FLAGS sets {OPTION}=50000, but"):
+        jaxatt.enable_small_loop_kernels()
+    monkeypatch.setenv("XLA_FLAGS", f"--xla_backend_extra_options={OPTION}=lots")
+    with pytest.raises(ValueError, match="not an integer number of bytes"):
+        jaxatt.enable_small_loop_kernels()
+
+
+def test_the_last_setting_in_xla_flags_is_the_one_read():
+    assert threshold_in_flags("") is None
+    assert threshold_in_flags("--xla_cpu_use_fusion_emitters=false") is None
+    flags = f"--xla_backend_extra_options={OPTION}=5000 --xla_backend_extra_options=a,{OPTION}=7000"
+    assert threshold_in_flags(flags) == 7000
