@@ -4,8 +4,8 @@ Enables float64 before anything else (reproductions run in double precision) and
 compilation cache (a second run in a new process reuses the compiled programs; folder from
 `--cache-dir`, else `$JAXATT_CACHE_DIR`, else `~/.cache/jaxatt/xla`; `JAXATT_CACHE_DIR=off`
 keeps jaxatt from turning it on, `--no-cache` turns every persistent cache off, even one that
-JAX's own `JAX_COMPILATION_CACHE_DIR` names), then dispatches to library functions. No numerics
-here.
+JAX's own `JAX_COMPILATION_CACHE_DIR` names), and, when asked (`--small-loop-kernels`),
+XLA:CPU's one-kernel small loops, then dispatches to library functions. No numerics here.
 
 Exit status (`EXIT_CODES`, also in `--help`): 0 done; 1 an unexpected error; 2 a bad command
 line, an unknown name, or `tune --resume` without a checkpoint or with one of another run
@@ -284,6 +284,16 @@ def build_parser() -> argparse.ArgumentParser:
             "JAX_COMPILATION_CACHE_DIR (JAXATT_CACHE_DIR=off only keeps jaxatt's own off)"
         ),
     )
+    cache.add_argument(
+        "--small-loop-kernels",
+        action="store_true",
+        help=(
+            "XLA:CPU compiles each small time loop as one kernel "
+            "(jaxatt.enable_small_loop_kernels): single trajectories and small batches run "
+            "faster, large models compile longer; results equal to rounding, but a tuning "
+            "path can end at other gains"
+        ),
+    )
     demo = sub.add_parser(
         "demo",
         parents=[cache],
@@ -346,8 +356,22 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _setup_small_loops(args: argparse.Namespace) -> None:
+    """`--small-loop-kernels`: before anything is computed (XLA reads the option once)."""
+    if getattr(args, "small_loop_kernels", False):
+        from ._small_loops import enable_small_loop_kernels
+
+        threshold = enable_small_loop_kernels()
+        print(
+            "[jaxatt] XLA:CPU compiles loops of under "
+            f"{threshold} bytes per iteration as one kernel",
+            flush=True,
+        )
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    _setup_small_loops(args)
     _enable_x64()
     _setup_cache(args)
     return args.func(args)
