@@ -76,7 +76,9 @@ def enable_small_loop_kernels(
     returns the threshold in effect [bytes accessed per loop iteration].
 
     Call it **before the first JAX computation** of the process: the first cell of a notebook,
-    the top of a script (importing jax and jaxatt first is fine). It appends
+    the top of a script (importing jax and jaxatt first is fine, except with optimistix older
+    than 0.1, which computes when diffrax imports it: there, set `XLA_FLAGS` before Python
+    starts). It appends
     `--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=N` to the environment
     variable `XLA_FLAGS`, which JAX's CPU backend reads once when it starts, then compiles a
     small probe loop to check that the setting took effect. Child processes inherit the
@@ -140,6 +142,8 @@ def _too_late(what: str) -> str:
         f"enable_small_loop_kernels: {what} XLA:CPU still compiles small loops as separate "
         "kernels: JAX's CPU backend had already started in this process, and it reads "
         "XLA_FLAGS only once. Call enable_small_loop_kernels() before the first JAX "
-        "computation (the first cell of a notebook, the top of a script), or start Python with "
+        "computation (the first cell of a notebook, the top of a script); with optimistix "
+        "older than 0.1 (which diffrax 0.7.0 accepts) importing jaxatt itself computes, so "
+        "there start Python with "
         f"XLA_FLAGS=--xla_backend_extra_options={OPTION}={DEFAULT_BYTES_PER_ITERATION}."
     )
