@@ -73,6 +73,21 @@ def test_write_report_records_the_versions(tmp_path):
     assert not (tmp_path / "n.json").exists()
 
 
+def test_write_report_records_the_xla_flags(tmp_path, monkeypatch):
+    # XLA's options change how its code rounds (a tuning path can follow the rounding: the
+    # demo's tuned gains differ with jaxatt.enable_small_loop_kernels), so a report says which
+    # were set; "" when none.
+    flags = "--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=1000000"
+    monkeypatch.setenv("XLA_FLAGS", flags)
+    assert _io.write_report(tmp_path / "a.json", {})["xla_flags"] == flags
+    monkeypatch.delenv("XLA_FLAGS")
+    assert json.loads((tmp_path / "a.json").read_text())["xla_flags"] == flags
+    assert _io.write_report(tmp_path / "b.json", {})["xla_flags"] == ""
+    with pytest.raises(ValueError, match="already has the key 'xla_flags'"):
+        _io.write_report(tmp_path / "c.json", {"xla_flags": "mine"})
+    assert not (tmp_path / "c.json").exists()
+
+
 def test_every_scenario_writes_its_numbers_before_its_figures():
     """Audit (stop 49): `reproduce` drew its figures first, so a figure that failed on a failed
     run's NaN (Yu 2022's Fig. 3: `set_ylim` of NaN) left no `metrics.json`, the one file

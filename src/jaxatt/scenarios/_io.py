@@ -19,6 +19,7 @@ failure time is not physical, except after a constraint violation, whose physics
 from these blocks check the status themselves."""
 
 import json
+import os
 import pathlib
 
 from .._json import json_safe as json_safe
@@ -40,12 +41,16 @@ def write_report(path: str | pathlib.Path, report: dict, *, also: tuple[str, ...
     """Write a scenario's `report` (a reproduction's metrics, a tuning run's report, the demo's
     summary) with `write_json`, adding the key `"versions"` (`jaxatt._versions.versions(also)`:
     jaxatt, JAX, jaxlib, Equinox, diffrax, optax, NumPy, then the distributions `also` that
-    this report's numbers depend on besides, such as the LMI solvers, then Python), and return
-    what a reader of the file gets. A `report` that already has the key is a `ValueError` (the
-    record would be overwritten)."""
-    if "versions" in report:
-        raise ValueError(
-            f"write_report: `report` already has the key 'versions', which write_report "
-            f"records itself; rename that field of the report written to {str(path)!r}."
-        )
-    return write_json(path, {**report, "versions": versions(also)})
+    this report's numbers depend on besides, such as the LMI solvers, then Python) and the key
+    `"xla_flags"` (the process's `XLA_FLAGS`, `""` when unset: XLA's options change how its
+    code rounds, e.g. `jaxatt.enable_small_loop_kernels`, and a tuning path can follow the
+    rounding), and return what a reader of the file gets. A `report` that already has either
+    key is a `ValueError` (the record would be overwritten)."""
+    for key in ("versions", "xla_flags"):
+        if key in report:
+            raise ValueError(
+                f"write_report: `report` already has the key {key!r}, which write_report "
+                f"records itself; rename that field of the report written to {str(path)!r}."
+            )
+    provenance = {"versions": versions(also), "xla_flags": os.environ.get("XLA_FLAGS", "")}
+    return write_json(path, {**report, **provenance})
