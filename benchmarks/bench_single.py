@@ -57,16 +57,12 @@ def parse_args(argv=None) -> argparse.Namespace:
     args = p.parse_args(argv)
     if args.steps < 1 or args.repeat < 1 or any(k < 1 or args.steps % k for k in args.save_every):
         p.error("--steps and --repeat must be positive and every --save-every divide --steps")
-    if (
-        args.small_loop_kernels
-        and not args.worker
-        and _SMALL_LOOP_OPTION in os.environ.get("XLA_FLAGS", "")
-    ):
-        p.error(f"--small-loop-kernels: XLA_FLAGS already sets {_SMALL_LOOP_OPTION}")
+    if args.small_loop_kernels and not args.worker:
+        from jaxatt._small_loops import OPTION, threshold_in_flags
+
+        if threshold_in_flags(os.environ.get("XLA_FLAGS", "")) is not None:
+            p.error(f"--small-loop-kernels: XLA_FLAGS already sets {OPTION}")
     return args
-
-
-_SMALL_LOOP_OPTION = "xla_cpu_small_while_loop_byte_threshold"
 
 
 def worker(args) -> None:

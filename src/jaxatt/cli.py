@@ -268,15 +268,15 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True)
     # Options every compiling command takes (after the command name).
-    cache = argparse.ArgumentParser(add_help=False)
-    cache.add_argument(
+    compiling = argparse.ArgumentParser(add_help=False)
+    compiling.add_argument(
         "--cache-dir",
         help=(
             "persistent compilation cache folder (default: $JAXATT_CACHE_DIR, else "
             "~/.cache/jaxatt/xla)"
         ),
     )
-    cache.add_argument(
+    compiling.add_argument(
         "--no-cache",
         action="store_true",
         help=(
@@ -284,7 +284,7 @@ def build_parser() -> argparse.ArgumentParser:
             "JAX_COMPILATION_CACHE_DIR (JAXATT_CACHE_DIR=off only keeps jaxatt's own off)"
         ),
     )
-    cache.add_argument(
+    compiling.add_argument(
         "--small-loop-kernels",
         action="store_true",
         help=(
@@ -296,7 +296,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     demo = sub.add_parser(
         "demo",
-        parents=[cache],
+        parents=[compiling],
         help="reproduce Chen 2022, run a Monte Carlo, tune with autodiff; write a report",
     )
     demo.add_argument("--out", help="output folder (default ./jaxatt-out/demo)")
@@ -305,7 +305,7 @@ def build_parser() -> argparse.ArgumentParser:
     lister = sub.add_parser("list", help="list the available scenarios")
     lister.set_defaults(func=_cmd_list)
     rep = sub.add_parser(
-        "reproduce", parents=[cache], help="reproduce a scenario's figures and metrics"
+        "reproduce", parents=[compiling], help="reproduce a scenario's figures and metrics"
     )
     rep.add_argument("name", help="scenario name (see `jaxatt list`)")
     rep.add_argument("--out", help="output folder (default ./jaxatt-out/NAME)")
@@ -313,7 +313,7 @@ def build_parser() -> argparse.ArgumentParser:
     rep.set_defaults(func=_cmd_reproduce)
     tun = sub.add_parser(
         "tune",
-        parents=[cache],
+        parents=[compiling],
         help="tune a scenario's gains with autodiff; write a report",
         description=(
             "Tune a problem's gains with autodiff, validate them on a held-out batch and write "
