@@ -1,5 +1,6 @@
 """The versions a result was computed with: `jaxatt --version`, and every scenario's report
-(`"versions"` in `metrics.json`, `tuning.json`, `summary.json`; a sentence in `report.md`).
+(`"versions"` in `metrics.json`, `tuning.json`, `summary.json`; a sentence in `report.md`,
+which names the process's `XLA_FLAGS` too, as the JSON reports' `"xla_flags"` does).
 
 A number jaxatt reports depends on them: JAX's random bits (its default changed in 0.5) draw
 the Monte Carlo samples, and XLA's code generation rounds differently from one jaxlib to the
@@ -7,6 +8,7 @@ next. Read from the installed distributions' metadata, so nothing is imported.
 """
 
 import importlib.metadata
+import os
 import platform
 
 
@@ -39,6 +41,10 @@ def versions_line() -> str:
 
 
 def versions_sentence() -> str:
-    """`Computed with jaxatt X, jax Y, ..., python W.`: `versions()` as the last sentence of a
-    Markdown report (`report.md`), the same record its JSON report holds."""
-    return "Computed with " + ", ".join(f"{k} {v}" for k, v in versions().items()) + "."
+    """`Computed with jaxatt X, jax Y, ..., python W; XLA_FLAGS unset.`: `versions()` and the
+    process's `XLA_FLAGS` (quoted as set, or "unset") as the last sentence of a Markdown report
+    (`report.md`), the same record its JSON report holds (`"versions"`, `"xla_flags"`). XLA's
+    options change how its code rounds, and a tuning path can follow the rounding."""
+    flags = os.environ.get("XLA_FLAGS", "").strip()
+    xla = f"XLA_FLAGS `{flags}`" if flags else "XLA_FLAGS unset"
+    return "Computed with " + ", ".join(f"{k} {v}" for k, v in versions().items()) + f"; {xla}."

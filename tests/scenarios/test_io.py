@@ -88,6 +88,24 @@ def test_write_report_records_the_xla_flags(tmp_path, monkeypatch):
     assert not (tmp_path / "c.json").exists()
 
 
+def test_the_report_sentence_names_the_versions_and_the_xla_flags(monkeypatch):
+    # report.md's last sentence carries the record the JSON report holds: every version and
+    # the XLA_FLAGS as set (quoted, so a reader can paste them), or that none were.
+    from jaxatt._versions import versions, versions_sentence
+
+    flags = "--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=1000000"
+    monkeypatch.setenv("XLA_FLAGS", f"  {flags} ")
+    sentence = versions_sentence()
+    assert sentence.startswith("Computed with jaxatt ")
+    assert all(f"{name} {version}" in sentence for name, version in versions().items())
+    assert sentence.endswith(f"; XLA_FLAGS `{flags}`.")
+    for unset in ("", "   "):
+        monkeypatch.setenv("XLA_FLAGS", unset)
+        assert versions_sentence().endswith("; XLA_FLAGS unset.")
+    monkeypatch.delenv("XLA_FLAGS")
+    assert versions_sentence().endswith("; XLA_FLAGS unset.")
+
+
 def test_every_scenario_writes_its_numbers_before_its_figures():
     """Audit (stop 49): `reproduce` drew its figures first, so a figure that failed on a failed
     run's NaN (Yu 2022's Fig. 3: `set_ylim` of NaN) left no `metrics.json`, the one file

@@ -249,7 +249,9 @@ def test_the_tuning_report_says_when_tuning_stopped_and_never_scores_a_failure(
     assert "NaN" not in (tmp_path / "tuning.json").read_text()
     # What computed it, in both files (a stopped run's report too).
     assert report["versions"]["jax"] == jax.__version__
-    assert text.rstrip().endswith(f"python {report['versions']['python']}.")
+    flags = report["xla_flags"].strip()
+    xla = f"XLA_FLAGS `{flags}`" if flags else "XLA_FLAGS unset"
+    assert text.rstrip().endswith(f"python {report['versions']['python']}; {xla}.")
 
 
 def test_the_tuning_report_names_held_out_peaks_above_the_penalties_bounds(tmp_path, monkeypatch):
