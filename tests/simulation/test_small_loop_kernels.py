@@ -5,7 +5,9 @@ a few ulps amplified over 1000 RK4 steps of a sliding motion). A call that comes
 bad threshold and a threshold the user set in `XLA_FLAGS` are each what the docstring says.
 
 The process-wide option can only be set before JAX's CPU backend starts, so the two
-configurations run in child processes (each under this process's other compiler options)."""
+configurations run in child processes (each under this process's other compiler options), and
+so do the calls after the backend started, in a child started without the option (`.ci/run`
+sets it for the suite)."""
 
 import importlib.metadata
 import json
@@ -13,7 +15,6 @@ import os
 import subprocess
 import sys
 
-import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -107,17 +108,59 @@ def test_the_time_loop_compiles_as_one_kernel_with_the_same_numbers(children):
     _close(on["one"], off["one"])
 
 
-def test_a_call_after_the_backend_started_raises_and_leaves_xla_flags_as_they_were(monkeypatch):
-    monkeypatch.setenv("XLA_FLAGS", _flags_without_the_option())
-    before = os.environ["XLA_FLAGS"]
-    jnp.zeros(1).block_until_ready()  # this process's backend has started
-    with pytest.raises(RuntimeError, match="before the first JAX computation"):
-        jaxatt.enable_small_loop_kernels()
-    assert os.environ["XLA_FLAGS"] == before
-    monkeypatch.delenv("XLA_FLAGS")
-    with pytest.raises(RuntimeError, match="had already started"):
-        jaxatt.enable_small_loop_kernels()
-    assert "XLA_FLAGS" not in os.environ
+# Calls after the backend started, in a child whose backend starts without the option (this
+# process may have it: `.ci/run` sets it for the suite, and then the call confirms it).
+LATE = """
+import json, os
+import jax.numpy as jnp
+import jaxatt
+from jaxatt._small_loops import OPTION
+
+
+def attempt(flags):
+    if flags is None:
+        os.environ.pop("XLA_FLAGS", None)
+    else:
+        os.environ["XLA_FLAGS"] = flags
+    try:
+        outcome = {"returned": jaxatt.enable_small_loop_kernels()}
+    except (RuntimeError, ValueError) as error:
+        outcome = {"error": type(error).__name__, "message": str(error)}
+    return {**outcome, "flags_after": os.environ.get("XLA_FLAGS")}
+
+
+base = os.environ.get("XLA_FLAGS", "")
+jnp.zeros(1).block_until_ready()  # the backend has started
+print(json.dumps({
+    "base": base,
+    "as_started": attempt(base),
+    "unset": attempt(None),
+    "checked": attempt(f"--xla_backend_extra_options={OPTION}=50000"),
+}))
+"""
+
+
+@pytest.fixture(scope="module")
+def late():
+    done = subprocess.run(
+        [sys.executable, "-c", LATE],
+        env=dict(os.environ, XLA_FLAGS=_flags_without_the_option()),
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def test_a_call_after_the_backend_started_raises_and_leaves_xla_flags_as_they_were(late):
+    started = late["as_started"]
+    assert started["error"] == "RuntimeError"
+    assert "before the first JAX computation" in started["message"]
+    assert started["flags_after"] == late["base"]
+    unset = late["unset"]
+    assert unset["error"] == "RuntimeError" and "had already started" in unset["message"]
+    assert unset["flags_after"] is None
 
 
 # (Floats, strings and None are refused by the suite's runtime type checks before the body's own
@@ -130,16 +173,17 @@ def test_a_bad_threshold_is_refused_before_anything_changes(bad, monkeypatch):
     assert os.environ["XLA_FLAGS"] == "--xla_cpu_use_fusion_emitters=false"
 
 
-def test_a_threshold_set_in_xla_flags_is_kept(monkeypatch):
+def test_a_threshold_set_in_xla_flags_is_kept(monkeypatch, late):
     # Below 4096 bytes the probe cannot tell the setting from XLA's default: kept, unchecked.
     flags = f"--xla_backend_extra_options=xla_cpu_use_multi_output_fusion,{OPTION}=2048"
     monkeypatch.setenv("XLA_FLAGS", flags)
     assert jaxatt.enable_small_loop_kernels() == 2048
     assert os.environ["XLA_FLAGS"] == flags
-    # From 4096 on it is checked: this process's backend started without it.
-    monkeypatch.setenv("XLA_FLAGS", f"--xla_backend_extra_options={OPTION}=50000")
-    with pytest.raises(RuntimeError, match=f"XLA_FLAGS sets {OPTION}=50000, but"):
-        jaxatt.enable_small_loop_kernels()
+    # From 4096 on it is checked: the child's backend started without it.
+    checked = late["checked"]
+    assert checked["error"] == "RuntimeError"
+    assert f"XLA_FLAGS sets {OPTION}=50000, but" in checked["message"]
+    assert checked["flags_after"] == f"--xla_backend_extra_options={OPTION}=50000"
     monkeypatch.setenv("XLA_FLAGS", f"--xla_backend_extra_options={OPTION}=lots")
     with pytest.raises(ValueError, match="not an integer number of bytes"):
         jaxatt.enable_small_loop_kernels()
