@@ -1,16 +1,20 @@
-"""The test suite compiles with two XLA:CPU settings that `.ci/run` sets in the open
+"""The test suite compiles with three XLA:CPU settings that `.ci/run` sets in the open
 (docs/testing.md): the LLVM IR emitters instead of the default MLIR fusion emitters
 (`--xla_cpu_use_fusion_emitters=false`, which compile jaxatt's closed loops 15-22 % faster,
-benchmarks/README.md) and LLVM's optimization level 0 instead of 2
+benchmarks/README.md), LLVM's optimization level 0 instead of 2
 (`--xla_backend_optimization_level=0`, which compiles them about 30 % faster and runs them
-1.5-1.8x slower, a scalarized batch 6x). A user who runs jaxatt with neither gets the same
+1.5-1.8x slower, a scalarized batch 6x), and the small-loop threshold that
+`jaxatt.enable_small_loop_kernels` sets (`--xla_backend_extra_options=
+xla_cpu_small_while_loop_byte_threshold=1000000`: a time loop of one trajectory runs as one
+kernel, 2-4x faster at level 0). A user who runs jaxatt with none of them gets the same
 numbers: Chen's M1 closed
 loop (sliding, saturated, |s|^a), a scalarized vmapped batch of it and reverse-mode gradients
 of its loss terms, computed here and in a child process under the other configuration (XLA's
-defaults if this process has either setting, both settings if it has neither), must agree.
+defaults if this process has any setting, all three if it has none), must agree.
 
 Both compile the same HLO; only the machine code differs (instruction order, vectorization, the
-inlined math functions, `jaxatt.numerics.vectorized_log` among them). Each result is compared
+inlined math functions, `jaxatt.numerics.vectorized_log` among them, and for the third setting
+one kernel per loop instead of one call per operation). Each result is compared
 relative to its largest component (the final sliding variable's components are 1e-6 to 3e-4 of
 a signal that starts near 1). Measured on jaxlib 0.10.2 (2026-12-04): the two emitters alone
 agreed to 2.1e-15, both settings against XLA's defaults to 1.4e-14 (the sliding variable after
@@ -37,8 +41,13 @@ def _name(flag: str) -> str:
     return flag.lstrip("-").split("=")[0]
 
 
-# The suite's compile-time settings (`.ci/run`), as `XLA_FLAGS` spells them.
-SETTINGS = ("--xla_cpu_use_fusion_emitters=false", "--xla_backend_optimization_level=0")
+# The suite's compile-time settings (`.ci/run`), as `XLA_FLAGS` spells them. (The third is
+# named by its flag, `xla_backend_extra_options`: flipping it off drops any backend option.)
+SETTINGS = (
+    "--xla_cpu_use_fusion_emitters=false",
+    "--xla_backend_optimization_level=0",
+    "--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=1000000",
+)
 SETTING_NAMES = {_name(setting) for setting in SETTINGS}
 
 # `results()` runs in this process and in a child under the other configuration: the numbers
@@ -93,8 +102,8 @@ def _settings_in(flags: str) -> int:
 
 
 def _other_configuration(flags: str) -> str:
-    """XLA_FLAGS with the suite's settings flipped: XLA's defaults for both if either is set,
-    else both set. Any other flag is kept."""
+    """XLA_FLAGS with the suite's settings flipped: XLA's defaults for all if any is set, else
+    all set. Any other flag is kept."""
     if _settings_in(flags):
         return " ".join(f for f in flags.split() if _name(f) not in SETTING_NAMES)
     return " ".join(flags.split() + list(SETTINGS))
