@@ -144,7 +144,9 @@ def test_bench_single_compares_the_one_kernel_loops_with_xlas_default(tmp_path):
     command = [sys.executable, str(BENCHMARKS / "bench_single.py"), "--small-loop-kernels"]
     command += ["--families", "rigid_body_pd", "--steps", "20", "--save-every", "20"]
     command += ["--repeat", "1", "--out", str(out)]
-    env = {k: v for k, v in os.environ.items() if not (k == "XLA_FLAGS" and OPTION in v)}
+    # (`.ci/run` sets the threshold for the suite: the workers start without it.)
+    env = dict(os.environ)
+    env["XLA_FLAGS"] = " ".join(t for t in env.get("XLA_FLAGS", "").split() if OPTION not in t)
     done = subprocess.run(command, capture_output=True, text=True, timeout=300, env=env)
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     result = json.loads(out.read_text())
