@@ -116,6 +116,22 @@ def test_small_loop_kernels_give_the_reproduction_the_same_metrics(tmp_path):
     assert b["monte_carlo"]["failed_samples"] == a["monte_carlo"]["failed_samples"] == 0
 
 
+def test_small_loop_kernels_under_a_jaxlib_that_aborts_on_them_is_a_usage_error(
+    tmp_path, capsys, monkeypatch
+):
+    # jaxlib before 0.7.2 aborts the process on some folded loops (tests/simulation/
+    # test_small_loop_kernels.py): the flag is refused with exit status 2 and nothing runs.
+    from jaxatt import _small_loops
+
+    monkeypatch.setattr(_small_loops, "jaxlib_version", lambda: (0, 6, 2))
+    out = tmp_path / "out"
+    args = ["reproduce", "rigid_body_pd", "--short", "--small-loop-kernels", "--out", str(out)]
+    assert cli.main(args) == cli.EXIT_USAGE == 2
+    err = capsys.readouterr().err
+    assert "jaxatt: --small-loop-kernels: enable_small_loop_kernels: jaxlib 0.6.2 aborts" in err
+    assert not out.exists()
+
+
 def test_tune_command_writes_a_report_and_resumes(tmp_path, capsys):
     # The demo's --short sizes (4 training, 16 held-out samples): the same compiled programs.
     args = [
@@ -343,4 +359,5 @@ def test_the_exit_statuses_are_in_the_help(capsys):
     assert info.value.code == 0
     out = capsys.readouterr().out
     assert "exit status:" in out and "3  tune: the run did not complete" in out
-    assert "2  bad command line, unknown NAME, or tune --resume without a checkpoint" in out
+    assert "2  bad command line, unknown NAME, tune --resume without a checkpoint" in out
+    assert "--small-loop-kernels under a jaxlib older than 0.7.2" in out

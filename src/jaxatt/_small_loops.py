@@ -18,8 +18,13 @@ so it must be set before the first computation. Results are those of XLA's defau
 configuration up to rounding (the same HLO, other machine code: 1e-17 to 1e-14 relative on
 the final states of one trajectory per family, `benchmarks/bench_single.py
 --small-loop-kernels`; `tests/simulation/test_small_loop_kernels.py` checks Chen 2022's).
+
+jaxlib before 0.7.2 aborts the process on some folded loops (those holding an operation XLA
+splits across threads, such as the random bits of `jax.random.uniform(key, (1000, 4))`), so
+[`enable_small_loop_kernels`][] refuses to set the option there: see `FIRST_SAFE_JAXLIB`.
 """
 
+import importlib.metadata
 import os
 import re
 
@@ -38,7 +43,27 @@ MIN_BYTES_PER_ITERATION = 4096
 """The smallest threshold [`enable_small_loop_kernels`][] sets: its check compiles a loop that
 accesses between 1024 (XLA's default threshold) and 4096 bytes per iteration."""
 
+FIRST_SAFE_JAXLIB = (0, 7, 2)
+"""The first jaxlib whose XLA:CPU runs every loop the threshold folds. Before it, a folded loop
+that holds an operation XLA splits across threads aborts the whole process: with the
+threshold at 10^6, `jax.random.uniform(jax.random.key(1), (1000, 4))` died in jaxlib 0.6.2
+("runtime_fork_join.cc:83] Check failed: run_options != nullptr") and in 0.7.0 and 0.7.1
+("LLVM ERROR: Program used external function '__xla_cpu_runtime_ParallelForkJoin' which could
+not be resolved!"), and ran in 0.7.2, 0.8.0 and 0.10.2 (2026-12-07, one fresh virtual
+environment per version; jaxatt's attitude samplers hit it at 1000 samples)."""
+
 _SETTING = re.compile(rf"{OPTION}=([^,\s'\"]*)")
+
+
+def jaxlib_version() -> tuple[int, ...]:
+    """The installed jaxlib's release as integers, e.g. `(0, 10, 2)` (read from its metadata;
+    a suffix such as `.dev20251201` is dropped)."""
+    found = re.match(r"(\d+)\.(\d+)\.(\d+)", importlib.metadata.version("jaxlib"))
+    if found is None:
+        raise RuntimeError(
+            f"cannot read jaxlib's version from {importlib.metadata.version('jaxlib')!r}"
+        )
+    return tuple(int(part) for part in found.groups())
 
 
 def threshold_in_flags(flags: str) -> int | None:
@@ -78,7 +103,8 @@ def enable_small_loop_kernels(
     Call it **before the first JAX computation** of the process: the first cell of a notebook,
     the top of a script (importing jax and jaxatt first is fine, except with optimistix older
     than 0.1, which computes when diffrax imports it: there, set `XLA_FLAGS` before Python
-    starts). It appends
+    starts, on a jaxlib of at least 0.7.2). It needs jaxlib 0.7.2 or later
+    (`FIRST_SAFE_JAXLIB`: older ones abort the process on some folded loops). It appends
     `--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=N` to the environment
     variable `XLA_FLAGS`, which JAX's CPU backend reads once when it starts, then compiles a
     small probe loop to check that the setting took effect. Child processes inherit the
@@ -107,8 +133,11 @@ def enable_small_loop_kernels(
     **Raises:**
     - `ValueError`: a `bytes_per_iteration` that is not an integer of at least 4096, or an
       `XLA_FLAGS` whose threshold is not an integer.
-    - `RuntimeError`: the check found loops still compiled as separate kernels, because JAX's
-      CPU backend had started before the call (`XLA_FLAGS` is then restored as it was).
+    - `RuntimeError`: a jaxlib older than 0.7.2 (`FIRST_SAFE_JAXLIB`: its XLA:CPU aborts the
+      process on some folded loops), refused before anything changes, even where `XLA_FLAGS`
+      already sets the threshold; or the check found loops still compiled as separate
+      kernels, because JAX's CPU backend had started before the call (`XLA_FLAGS` is then
+      restored as it was).
     """
     if (
         isinstance(bytes_per_iteration, bool)
@@ -121,6 +150,9 @@ def enable_small_loop_kernels(
         )
     before = os.environ.get("XLA_FLAGS")
     existing = threshold_in_flags(before or "")
+    found = jaxlib_version()
+    if found < FIRST_SAFE_JAXLIB:
+        raise RuntimeError(_unsafe_jaxlib(found, existing))
     if existing is not None:
         # The user's own setting wins; below 4096 bytes the probe cannot tell it from XLA's.
         if existing >= MIN_BYTES_PER_ITERATION and not small_loops_compile_as_one_kernel():
@@ -135,6 +167,21 @@ def enable_small_loop_kernels(
             os.environ["XLA_FLAGS"] = before
         raise RuntimeError(_too_late("after setting XLA_FLAGS,"))
     return int(bytes_per_iteration)
+
+
+def _unsafe_jaxlib(found: tuple[int, ...], existing: int | None) -> str:
+    version, safe = (".".join(map(str, v)) for v in (found, FIRST_SAFE_JAXLIB))
+    advice = (
+        f"XLA_FLAGS sets {OPTION}={existing} in this process: remove it, or upgrade"
+        if existing is not None
+        else "Small loops stay separate kernels; to have them as one, upgrade"
+    )
+    return (
+        f"enable_small_loop_kernels: jaxlib {version} aborts the process on some loops "
+        "compiled as one kernel (those holding an operation XLA splits across threads: "
+        f"jax.random.uniform(key, (1000, 4)) does); jaxlib >= {safe} runs them. "
+        f"{advice} jax and jaxlib to >= {safe}."
+    )
 
 
 def _too_late(what: str) -> str:

@@ -8,9 +8,10 @@ JAX's own `JAX_COMPILATION_CACHE_DIR` names), and, when asked (`--small-loop-ker
 XLA:CPU's one-kernel small loops, then dispatches to library functions. No numerics here.
 
 Exit status (`EXIT_CODES`, also in `--help`): 0 done; 1 an unexpected error; 2 a bad command
-line, an unknown name, or `tune --resume` without a checkpoint or with one of another run
-(nothing run); 3 a `tune` run, or the `demo`'s tuning stage, that did not complete (a
-non-finite step), so that no script or CI job takes it for a success.
+line, an unknown name, `tune --resume` without a checkpoint or with one of another run, or
+`--small-loop-kernels` where it cannot take effect (nothing run); 3 a `tune` run, or the
+`demo`'s tuning stage, that did not complete (a non-finite step), so that no script or CI job
+takes it for a success.
 """
 
 import argparse
@@ -27,9 +28,10 @@ EXIT_OK = 0
 EXIT_ERROR = 1
 """An unexpected error (Python's status for an uncaught exception, with its traceback)."""
 EXIT_USAGE = 2
-"""A bad command line (argparse's status), an unknown scenario or tuning problem, or
+"""A bad command line (argparse's status), an unknown scenario or tuning problem,
 `tune --resume` with no checkpoint in the output folder or with a checkpoint of another run
-(another problem, batch size or starting gains); nothing was run."""
+(another problem, batch size or starting gains), or `--small-loop-kernels` where it cannot
+take effect (a jaxlib older than 0.7.2); nothing was run."""
 EXIT_STOPPED = 3
 """`tune`: the run did not complete (a step's loss or gradient was not finite); why is on
 stderr. What the problem writes (its report, where it records the stop, and the checkpoint)
@@ -43,8 +45,9 @@ EXIT_CODES = f"""exit status:
   {EXIT_OK}  done (tune: every optimizer step completed; tuned gains above a training
      penalty's bound on held-out samples are a warning on stderr)
   {EXIT_ERROR}  an unexpected error (traceback on stderr)
-  {EXIT_USAGE}  bad command line, unknown NAME, or tune --resume without a checkpoint in
-     the output folder or with another run's checkpoint there (nothing was run)
+  {EXIT_USAGE}  bad command line, unknown NAME, tune --resume without a checkpoint in
+     the output folder or with another run's checkpoint there, or
+     --small-loop-kernels under a jaxlib older than 0.7.2 (nothing was run)
   {EXIT_STOPPED}  tune: the run did not complete (a non-finite loss or gradient; why is
      on stderr); the checkpoint, and the report where the problem writes one
      for a stopped run, hold the last good step. demo: its tuning stage did not
@@ -356,22 +359,30 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _setup_small_loops(args: argparse.Namespace) -> None:
-    """`--small-loop-kernels`: before anything is computed (XLA reads the option once)."""
+def _setup_small_loops(args: argparse.Namespace) -> bool:
+    """`--small-loop-kernels`: before anything is computed (XLA reads the option once).
+    False, with why on stderr, where the option cannot take effect (a jaxlib older than 0.7.2,
+    or a backend that started first)."""
     if getattr(args, "small_loop_kernels", False):
         from ._small_loops import enable_small_loop_kernels
 
-        threshold = enable_small_loop_kernels()
+        try:
+            threshold = enable_small_loop_kernels()
+        except RuntimeError as error:
+            print(f"jaxatt: --small-loop-kernels: {error}", file=sys.stderr)
+            return False
         print(
             "[jaxatt] XLA:CPU compiles loops of under "
             f"{threshold} bytes per iteration as one kernel",
             flush=True,
         )
+    return True
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    _setup_small_loops(args)
+    if not _setup_small_loops(args):
+        return EXIT_USAGE
     _enable_x64()
     _setup_cache(args)
     return args.func(args)

@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 
 import jaxatt
-from jaxatt._small_loops import OPTION, threshold_in_flags
+from jaxatt import _small_loops
+from jaxatt._small_loops import FIRST_SAFE_JAXLIB, OPTION, jaxlib_version, threshold_in_flags
 
 
 SCRIPT = """
@@ -91,6 +92,11 @@ def _imports_compute() -> bool:
 
 def test_the_time_loop_compiles_as_one_kernel_with_the_same_numbers(children):
     on, off = children["on"], children["off"]
+    if jaxlib_version() < FIRST_SAFE_JAXLIB:
+        # (the oldest versions' jaxlib 0.6.2) The call refuses before anything changes.
+        assert "aborts the process on some loops compiled as one kernel" in on["refused"]
+        assert off["small_calls"] == 0
+        return
     if _imports_compute():
         # The call refuses, saying why and what to do instead (the environment variable).
         assert "importing jaxatt itself computes" in on["refused"]
@@ -129,6 +135,9 @@ def attempt(flags):
     return {**outcome, "flags_after": os.environ.get("XLA_FLAGS")}
 
 
+# The order of the checks is tested on every jaxlib: the one that refuses old jaxlibs (tested
+# below) is lifted here, where no loop is ever folded (the backend starts without the option).
+jaxatt._small_loops.FIRST_SAFE_JAXLIB = (0, 0, 0)
 base = os.environ.get("XLA_FLAGS", "")
 jnp.zeros(1).block_until_ready()  # the backend has started
 print(json.dumps({
@@ -174,6 +183,8 @@ def test_a_bad_threshold_is_refused_before_anything_changes(bad, monkeypatch):
 
 
 def test_a_threshold_set_in_xla_flags_is_kept(monkeypatch, late):
+    # (On a jaxlib that runs folded loops: the refusal of older ones is tested below.)
+    monkeypatch.setattr(_small_loops, "jaxlib_version", lambda: FIRST_SAFE_JAXLIB)
     # Below 4096 bytes the probe cannot tell the setting from XLA's default: kept, unchecked.
     flags = f"--xla_backend_extra_options=xla_cpu_use_multi_output_fusion,{OPTION}=2048"
     monkeypatch.setenv("XLA_FLAGS", flags)
@@ -187,6 +198,56 @@ def test_a_threshold_set_in_xla_flags_is_kept(monkeypatch, late):
     monkeypatch.setenv("XLA_FLAGS", f"--xla_backend_extra_options={OPTION}=lots")
     with pytest.raises(ValueError, match="not an integer number of bytes"):
         jaxatt.enable_small_loop_kernels()
+
+
+def test_a_jaxlib_that_aborts_on_folded_loops_is_refused_before_anything_changes(monkeypatch):
+    flags = "--xla_cpu_use_fusion_emitters=false"
+    monkeypatch.setenv("XLA_FLAGS", flags)
+    monkeypatch.setattr(_small_loops, "jaxlib_version", lambda: (0, 7, 1))
+    with pytest.raises(RuntimeError, match=r"jaxlib 0\.7\.1 aborts the process") as refused:
+        jaxatt.enable_small_loop_kernels()
+    assert "Small loops stay separate kernels" in str(refused.value)
+    assert "jaxlib >= 0.7.2" in str(refused.value)
+    assert os.environ["XLA_FLAGS"] == flags
+    # A threshold the user set is refused too (it is kept, unchecked, on a safe jaxlib).
+    flags = f"--xla_backend_extra_options={OPTION}=2048"
+    monkeypatch.setenv("XLA_FLAGS", flags)
+    with pytest.raises(RuntimeError, match=f"XLA_FLAGS sets {OPTION}=2048 in this process"):
+        jaxatt.enable_small_loop_kernels()
+    assert os.environ["XLA_FLAGS"] == flags
+    monkeypatch.setattr(_small_loops, "jaxlib_version", lambda: FIRST_SAFE_JAXLIB)
+    assert jaxatt.enable_small_loop_kernels() == 2048
+
+
+def test_jaxlib_version_is_the_installed_release():
+    import jaxlib.version
+
+    assert ".".join(map(str, jaxlib_version())) == jaxlib.version.__version__.split(".dev")[0]
+
+
+# What FIRST_SAFE_JAXLIB records, checked on the jaxlib installed: with the threshold set before
+# the backend starts, a few thousand uniform random numbers (threefry's loop, split across
+# threads) abort the process before 0.7.2 and are computed from it on.
+ABORTS = """
+import jax
+import jax.random as jr
+
+print(float(jr.uniform(jr.key(1), (1000, 4)).sum()))
+"""
+
+
+def test_the_first_safe_jaxlib_is_where_folded_parallel_loops_stop_aborting():
+    env = dict(os.environ)
+    env["XLA_FLAGS"] = f"{_flags_without_the_option()} --xla_backend_extra_options={OPTION}=1000000"
+    done = subprocess.run(
+        [sys.executable, "-c", ABORTS], env=env, capture_output=True, text=True, timeout=300
+    )
+    if jaxlib_version() < FIRST_SAFE_JAXLIB:
+        assert done.returncode != 0
+        assert "ParallelForkJoin" in done.stderr or "runtime_fork_join" in done.stderr
+    else:
+        assert done.returncode == 0, done.stderr[-3000:]
+        assert 1800 < float(done.stdout.strip().splitlines()[-1]) < 2200  # 4000 draws, mean 1/2
 
 
 def test_the_last_setting_in_xla_flags_is_the_one_read():
