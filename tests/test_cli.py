@@ -19,18 +19,22 @@ def test_list_names_the_scenarios(capsys):
     assert "rigid_body_pd" in out and "Chen 2022" in out and "yu2022" in out
 
 
-def test_version_names_jaxatt_and_the_versions_its_numbers_depend_on(capsys):
+def test_version_names_jaxatt_and_the_versions_its_numbers_depend_on(capsys, monkeypatch):
     import jax
     import jaxlib
 
     import jaxatt
 
-    with pytest.raises(SystemExit) as stop:
-        cli.main(["--version"])
-    assert stop.value.code == 0
-    out = capsys.readouterr().out.strip()
-    assert out.startswith(f"jaxatt {jaxatt.__version__} (")
-    assert f"jax {jax.__version__}," in out and f"jaxlib {jaxlib.__version__}," in out
+    # ... and the XLA options, which change the numbers' rounding (for a bug report).
+    for flags, said in (("", "XLA_FLAGS unset"), (" --xla_a=1 ", "XLA_FLAGS `--xla_a=1`")):
+        monkeypatch.setenv("XLA_FLAGS", flags)
+        with pytest.raises(SystemExit) as stop:
+            cli.main(["--version"])
+        assert stop.value.code == 0
+        out = capsys.readouterr().out.strip()
+        assert out.startswith(f"jaxatt {jaxatt.__version__} (")
+        assert f"jax {jax.__version__}," in out and f"jaxlib {jaxlib.__version__}," in out
+        assert out.endswith(f"; {said})")
 
 
 def test_demo_runs_the_whole_workflow_and_reports_measured_numbers(tmp_path, capsys):

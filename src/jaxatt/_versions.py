@@ -33,11 +33,19 @@ def versions(also: tuple[str, ...] = ()) -> dict[str, str]:
     return found
 
 
+def xla_flags_phrase() -> str:
+    """The process's `XLA_FLAGS` as a report names them: "XLA_FLAGS `...`" (quoted, stripped)
+    or "XLA_FLAGS unset" (unset or blank)."""
+    flags = os.environ.get("XLA_FLAGS", "").strip()
+    return f"XLA_FLAGS `{flags}`" if flags else "XLA_FLAGS unset"
+
+
 def versions_line() -> str:
-    """One line: `jaxatt X (jax Y, jaxlib Z, ..., python W)`."""
+    """One line (`jaxatt --version`): `jaxatt X (jax Y, jaxlib Z, ..., python W; XLA_FLAGS
+    unset)`, the process's `XLA_FLAGS` as `xla_flags_phrase` names them."""
     found = versions()
     rest = ", ".join(f"{name} {version}" for name, version in found.items() if name != "jaxatt")
-    return f"jaxatt {found['jaxatt']} ({rest})"
+    return f"jaxatt {found['jaxatt']} ({rest}; {xla_flags_phrase()})"
 
 
 def versions_sentence() -> str:
@@ -45,6 +53,5 @@ def versions_sentence() -> str:
     process's `XLA_FLAGS` (quoted as set, or "unset") as the last sentence of a Markdown report
     (`report.md`), the same record its JSON report holds (`"versions"`, `"xla_flags"`). XLA's
     options change how its code rounds, and a tuning path can follow the rounding."""
-    flags = os.environ.get("XLA_FLAGS", "").strip()
-    xla = f"XLA_FLAGS `{flags}`" if flags else "XLA_FLAGS unset"
-    return "Computed with " + ", ".join(f"{k} {v}" for k, v in versions().items()) + f"; {xla}."
+    found = ", ".join(f"{k} {v}" for k, v in versions().items())
+    return f"Computed with {found}; {xla_flags_phrase()}."
