@@ -15,7 +15,7 @@ import sys
 
 import pytest
 
-from jaxatt._small_loops import OPTION
+from jaxatt._small_loops import OPTION, without_threshold
 
 
 BENCHMARKS = pathlib.Path(__file__).resolve().parents[1] / "benchmarks"
@@ -145,8 +145,7 @@ def test_bench_single_compares_the_one_kernel_loops_with_xlas_default(tmp_path):
     command += ["--families", "rigid_body_pd", "--steps", "20", "--save-every", "20"]
     command += ["--repeat", "1", "--out", str(out)]
     # (`.ci/run` sets the threshold for the suite: the workers start without it.)
-    env = dict(os.environ)
-    env["XLA_FLAGS"] = " ".join(t for t in env.get("XLA_FLAGS", "").split() if OPTION not in t)
+    env = dict(os.environ, XLA_FLAGS=without_threshold(os.environ.get("XLA_FLAGS", "")))
     done = subprocess.run(command, capture_output=True, text=True, timeout=300, env=env)
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     result = json.loads(out.read_text())

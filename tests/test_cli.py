@@ -97,10 +97,9 @@ def test_small_loop_kernels_give_the_reproduction_the_same_metrics(tmp_path):
     import subprocess
     import sys
 
-    from jaxatt._small_loops import OPTION
+    from jaxatt._small_loops import without_threshold
 
-    env = dict(os.environ)
-    env["XLA_FLAGS"] = " ".join(t for t in env.get("XLA_FLAGS", "").split() if OPTION not in t)
+    env = dict(os.environ, XLA_FLAGS=without_threshold(os.environ.get("XLA_FLAGS", "")))
     command = [sys.executable, "-m", "jaxatt", "reproduce", "rigid_body_pd", "--short"]
     runs = {}
     for name, extra in (("a", []), ("b", ["--small-loop-kernels"])):

@@ -58,11 +58,10 @@ _SETTING = re.compile(rf"{OPTION}=([^,\s'\"]*)")
 def jaxlib_version() -> tuple[int, ...]:
     """The installed jaxlib's release as integers, e.g. `(0, 10, 2)` (read from its metadata;
     a suffix such as `.dev20251201` is dropped)."""
-    found = re.match(r"(\d+)\.(\d+)\.(\d+)", importlib.metadata.version("jaxlib"))
+    text = importlib.metadata.version("jaxlib")
+    found = re.match(r"(\d+)\.(\d+)\.(\d+)", text)
     if found is None:
-        raise RuntimeError(
-            f"cannot read jaxlib's version from {importlib.metadata.version('jaxlib')!r}"
-        )
+        raise RuntimeError(f"cannot read jaxlib's version from {text!r}")
     return tuple(int(part) for part in found.groups())
 
 
@@ -78,6 +77,13 @@ def threshold_in_flags(flags: str) -> int | None:
         raise ValueError(
             f"XLA_FLAGS sets {OPTION} to {found[-1]!r}, which is not an integer number of bytes."
         ) from None
+
+
+def without_threshold(flags: str) -> str:
+    """An `XLA_FLAGS` string with every option that sets the small-loop threshold removed (the
+    whole `--xla_backend_extra_options=...` token that holds it): what a child process gets to
+    start with XLA's default threshold."""
+    return " ".join(token for token in flags.split() if OPTION not in token)
 
 
 def _probe(x):

@@ -20,7 +20,13 @@ import pytest
 
 import jaxatt
 from jaxatt import _small_loops
-from jaxatt._small_loops import FIRST_SAFE_JAXLIB, OPTION, jaxlib_version, threshold_in_flags
+from jaxatt._small_loops import (
+    FIRST_SAFE_JAXLIB,
+    OPTION,
+    jaxlib_version,
+    threshold_in_flags,
+    without_threshold,
+)
 
 
 SCRIPT = """
@@ -55,9 +61,7 @@ print(json.dumps({
 
 
 def _flags_without_the_option() -> str:
-    return " ".join(
-        token for token in os.environ.get("XLA_FLAGS", "").split() if OPTION not in token
-    )
+    return without_threshold(os.environ.get("XLA_FLAGS", ""))
 
 
 @pytest.fixture(scope="module")
@@ -251,6 +255,7 @@ def test_the_first_safe_jaxlib_is_where_folded_parallel_loops_stop_aborting():
 
 
 def test_the_last_setting_in_xla_flags_is_the_one_read():
+    assert without_threshold(f"--a=1 --xla_backend_extra_options=x,{OPTION}=9  --b") == "--a=1 --b"
     assert threshold_in_flags("") is None
     assert threshold_in_flags("--xla_cpu_use_fusion_emitters=false") is None
     flags = f"--xla_backend_extra_options={OPTION}=5000 --xla_backend_extra_options=a,{OPTION}=7000"
