@@ -1,5 +1,6 @@
 """The jaxtyping vocabulary used across jaxatt's public signatures."""
 
+from collections.abc import Sequence
 from typing import TypeAlias
 
 import numpy as np
@@ -7,6 +8,8 @@ from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 
 RealScalarLike: TypeAlias = float | int | np.floating | np.integer | Float[ArrayLike, ""]
+Vector3Like: TypeAlias = Float[ArrayLike, "3"] | Sequence[RealScalarLike]
+"""A 3-vector as users write one: an array of shape (3,), or a list or tuple of three numbers."""
 Scalar: TypeAlias = Float[Array, ""]
 BoolScalar: TypeAlias = Bool[Array, ""]
 IntScalar: TypeAlias = Int[Array, ""]

@@ -57,6 +57,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from .._custom_types import RealScalarLike
 from .._validation import (
     check_flag,
     check_in_open_interval,
@@ -150,30 +151,30 @@ class SafeApproachSlidingMode(AbstractController):
 
     def __init__(
         self,
-        model,
-        safety,
+        model: Proximity,
+        safety: CollisionAvoidance,
         *,
-        k1,
-        k2,
-        k3,
-        gamma,
-        k_s,
-        k_eta,
-        k_h,
-        P1,
-        P2,
-        force_limit,
-        torque_limit,
-        length=10.0,
-        influence=2.0,
-        epsilon=0.01,
-        mu=1e-3,
+        k1: RealScalarLike,
+        k2: RealScalarLike,
+        k3: RealScalarLike,
+        gamma: RealScalarLike,
+        k_s: RealScalarLike,
+        k_eta: RealScalarLike,
+        k_h: RealScalarLike,
+        P1: RealScalarLike,
+        P2: RealScalarLike,
+        force_limit: RealScalarLike,
+        torque_limit: RealScalarLike,
+        length: RealScalarLike = 10.0,
+        influence: RealScalarLike = 2.0,
+        epsilon: RealScalarLike = 0.01,
+        mu: RealScalarLike = 1e-3,
         avoidance: str | None = "surface",
         integral_start: str = "zero_surface",
         surface: str = "terminal",
-        velocity_limit=None,
-        rate_limit=None,
-        floor=1e-2,
+        velocity_limit: RealScalarLike | None = None,
+        rate_limit: RealScalarLike | None = None,
+        floor: RealScalarLike = 1e-2,
         template_auxiliary: bool = False,
     ):
         where = "SafeApproachSlidingMode"

@@ -15,8 +15,9 @@ from typing import ClassVar
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-from jaxtyping import Array, Float
+from jaxtyping import Array, ArrayLike, Float
 
+from .._custom_types import RealScalarLike
 from .._validation import check_in_open_interval, check_instance, check_positive, check_scalar
 from ..numerics import FractionalMemory, memory_derivative, memory_init, memory_push
 from ..plants import AbstractRelativeOrbit, RelativeOrbitState
@@ -54,7 +55,12 @@ class TranslationalSlidingMode(AbstractController):
     measurement_type: ClassVar[type] = RelativeOrbitState
     reference_type: ClassVar[type] = TranslationReference
 
-    def __init__(self, model, surface, reaching_law):
+    def __init__(
+        self,
+        model: AbstractRelativeOrbit,
+        surface: PDSurface | TerminalSurface,
+        reaching_law: AbstractReachingLaw,
+    ):
         _check_parts("TranslationalSlidingMode", model, reaching_law)
         check_instance(
             "TranslationalSlidingMode",
@@ -164,10 +170,10 @@ class FractionalSlidingMode(AbstractController):
 
     def __init__(
         self,
-        model,
-        slope,
-        reaching_law,
-        alpha,
+        model: AbstractRelativeOrbit,
+        slope: Float[ArrayLike, "*k"],
+        reaching_law: AbstractReachingLaw,
+        alpha: RealScalarLike,
         step: float,
         horizon: float,
         memory: float | None = None,

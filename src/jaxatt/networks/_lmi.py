@@ -50,6 +50,7 @@ import warnings
 
 import numpy as np
 
+from ._coupling import TwoLayerNetwork
 from ._types import MatrixLike
 
 
@@ -305,7 +306,9 @@ def printed_form_ceiling(intra_laplacian: MatrixLike, delta: MatrixLike, lam: fl
     }
 
 
-def network_lmi_tau_max(network, form: LMIForm = CORRECTED, **bisection) -> list[float]:
+def network_lmi_tau_max(
+    network: TwoLayerNetwork, form: LMIForm = CORRECTED, **bisection
+) -> list[float]:
     r"""[`lmi_tau_max`][] for each inter-group mode $k = 2..q$ of a
     [`TwoLayerNetwork`][jaxatt.networks.TwoLayerNetwork] ($A = -L_1$,
     $B = -\lambda_k\Delta$); the network's certified bound is the smallest (NaN if a mode's

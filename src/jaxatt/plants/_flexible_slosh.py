@@ -45,6 +45,7 @@ $\tfrac12(\dot n^T\dot n + n^TK_sn)$ [J] and `slosh_energy`
 $\tfrac12(\dot\eta^TA\dot\eta + \eta^TK_f\eta)$ [J].
 """
 
+from collections.abc import Sequence
 from typing import ClassVar
 
 import equinox as eqx
@@ -52,7 +53,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
-from .._custom_types import Mat33, RealScalarLike, Vec3
+from .._custom_types import Mat33, RealScalarLike, Vec3, Vector3Like
 from .._validation import (
     check,
     check_batched_shape,
@@ -109,7 +110,14 @@ class SloshPendulum(eqx.Module):
     suspension: Float[Array, "3"]
     damping: Float[Array, "3"]
 
-    def __init__(self, mass, length, gravity, suspension, damping):
+    def __init__(
+        self,
+        mass: RealScalarLike,
+        length: RealScalarLike,
+        gravity: RealScalarLike,
+        suspension: Vector3Like,
+        damping: Vector3Like,
+    ):
         where = "SloshPendulum"
         suspension, damping = _array(suspension), _array(damping)
         self.mass = check_positive_scalar(where, "mass", mass)
@@ -176,7 +184,12 @@ class ModalAppendage(eqx.Module):
     damping: Float[Array, " N"]
     coupling: Float[Array, "N 3"]
 
-    def __init__(self, frequencies, damping, coupling):
+    def __init__(
+        self,
+        frequencies: Float[ArrayLike, " N"] | Sequence[RealScalarLike],
+        damping: Float[ArrayLike, " N"] | Sequence[RealScalarLike],
+        coupling: Float[ArrayLike, "N 3"] | Sequence[Vector3Like],
+    ):
         where = "ModalAppendage"
         frequencies, damping, coupling = _array(frequencies), _array(damping), _array(coupling)
         self.frequencies = check_positive(where, "frequencies", frequencies)

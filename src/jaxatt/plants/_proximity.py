@@ -20,6 +20,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
+from .._custom_types import RealScalarLike
 from .._validation import check_finite, check_positive_scalar, check_scalar
 from ..metrics import AbstractMetric
 from ..numerics import safe_arccos, safe_norm
@@ -62,9 +63,9 @@ class Proximity(AbstractPlant):
         mass: ArrayLike,
         inertia: ArrayLike,
         *,
-        i=0.0,
-        raan=0.0,
-        argp=0.0,
+        i: RealScalarLike = 0.0,
+        raan: RealScalarLike = 0.0,
+        argp: RealScalarLike = 0.0,
         torque_disturbance: AbstractSignal | None = None,
     ):
         if not isinstance(orbit, AbstractRelativeOrbit):

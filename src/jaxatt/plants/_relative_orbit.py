@@ -182,7 +182,13 @@ class RelativeOrbit(AbstractRelativeOrbit):
     mu: Float[Array, ""]
     disturbance: AbstractSignal
 
-    def __init__(self, a, e=0.0, mu=MU_EARTH, disturbance: AbstractSignal | None = None):
+    def __init__(
+        self,
+        a: RealScalarLike,
+        e: RealScalarLike = 0.0,
+        mu: RealScalarLike = MU_EARTH,
+        disturbance: AbstractSignal | None = None,
+    ):
         self.a, self.e, self.mu = check_target_orbit("RelativeOrbit", a, e, mu)
         self.disturbance = _disturbance("RelativeOrbit", disturbance)
 
@@ -211,7 +217,16 @@ class RelativeOrbitJ2(AbstractRelativeOrbit):
     argp: Float[Array, ""]
     disturbance: AbstractSignal
 
-    def __init__(self, a, e=0.0, i=0.0, raan=0.0, argp=0.0, mu=MU_EARTH, disturbance=None):
+    def __init__(
+        self,
+        a: RealScalarLike,
+        e: RealScalarLike = 0.0,
+        i: RealScalarLike = 0.0,
+        raan: RealScalarLike = 0.0,
+        argp: RealScalarLike = 0.0,
+        mu: RealScalarLike = MU_EARTH,
+        disturbance: AbstractSignal | None = None,
+    ):
         self.a, self.e, self.mu = check_target_orbit("RelativeOrbitJ2", a, e, mu)
         self.i, self.raan, self.argp = (
             check_finite("RelativeOrbitJ2", n, check_scalar("RelativeOrbitJ2", n, v))
@@ -245,7 +260,13 @@ class TschaunerHempel(AbstractRelativeOrbit):
     mu: Float[Array, ""]
     disturbance: AbstractSignal
 
-    def __init__(self, a, e=0.0, mu=MU_EARTH, disturbance: AbstractSignal | None = None):
+    def __init__(
+        self,
+        a: RealScalarLike,
+        e: RealScalarLike = 0.0,
+        mu: RealScalarLike = MU_EARTH,
+        disturbance: AbstractSignal | None = None,
+    ):
         self.a, self.e, self.mu = check_target_orbit("TschaunerHempel", a, e, mu)
         self.disturbance = _disturbance("TschaunerHempel", disturbance)
 
@@ -267,7 +288,12 @@ class ClohessyWiltshire(AbstractRelativeOrbit):
     mu: Float[Array, ""]
     disturbance: AbstractSignal
 
-    def __init__(self, a, mu=MU_EARTH, disturbance: AbstractSignal | None = None):
+    def __init__(
+        self,
+        a: RealScalarLike,
+        mu: RealScalarLike = MU_EARTH,
+        disturbance: AbstractSignal | None = None,
+    ):
         self.a, self.e, self.mu = check_target_orbit("ClohessyWiltshire", a, 0.0, mu)
         self.disturbance = _disturbance("ClohessyWiltshire", disturbance)
 

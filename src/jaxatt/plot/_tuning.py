@@ -2,10 +2,13 @@
 
 import matplotlib.pyplot as plt
 import numpy as np
+from jaxtyping import ArrayLike, Float
 from matplotlib.axes import Axes
 
 
-def plot_loss_curve(losses, *, ax: Axes | None = None, label: str | None = None) -> Axes:
+def plot_loss_curve(
+    losses: Float[ArrayLike, " steps"], *, ax: Axes | None = None, label: str | None = None
+) -> Axes:
     """The objective at each optimizer step (evaluated before that step's update)."""
     if ax is None:
         _, ax = plt.subplots(figsize=(6, 3))

@@ -26,7 +26,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .._custom_types import RealScalarLike
+from .._custom_types import RealScalarLike, Vector3Like
 from .._validation import check, check_finite, check_positive, check_scalar, check_shape
 from ..numerics import vectorized_sincos
 from ..orbits import MU_EARTH
@@ -72,19 +72,19 @@ class FlyAround(AbstractReference):
 
     def __init__(
         self,
-        a,
-        e,
-        i,
-        raan,
-        argp,
+        a: RealScalarLike,
+        e: RealScalarLike,
+        i: RealScalarLike,
+        raan: RealScalarLike,
+        argp: RealScalarLike,
         *,
-        radius,
-        rate,
-        normal,
-        theta0=0.0,
-        phase=0.0,
-        t0=0.0,
-        mu=MU_EARTH,
+        radius: RealScalarLike,
+        rate: RealScalarLike,
+        normal: Vector3Like,
+        theta0: RealScalarLike = 0.0,
+        phase: RealScalarLike = 0.0,
+        t0: RealScalarLike = 0.0,
+        mu: RealScalarLike = MU_EARTH,
     ):
         where = "FlyAround"
         # Every orbit and circle parameter is one number: a (3,) `rate` or `t0` would broadcast

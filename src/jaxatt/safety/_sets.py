@@ -31,6 +31,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
+from .._custom_types import RealScalarLike
 from .._validation import check_instance, is_real_scalar
 from ..numerics import clip, maximum, minimum
 
@@ -66,7 +67,7 @@ class KeepOutSphere(eqx.Module):
 
     radius: float = eqx.field(static=True)
 
-    def __init__(self, radius):
+    def __init__(self, radius: RealScalarLike):
         self.radius = _positive("KeepOutSphere", "radius", radius)
 
     def factor(self, x, r2):
@@ -84,7 +85,7 @@ class ConeCorridor(eqx.Module):
 
     half_angle: float = eqx.field(static=True)
 
-    def __init__(self, half_angle):
+    def __init__(self, half_angle: RealScalarLike):
         self.half_angle = _half_angle("ConeCorridor", half_angle)
 
     def profile(self, x):
@@ -105,7 +106,7 @@ class CissoidCorridor(eqx.Module):
     half_angle: float = eqx.field(static=True)
     a: float = eqx.field(static=True)
 
-    def __init__(self, half_angle, a):
+    def __init__(self, half_angle: RealScalarLike, a: RealScalarLike):
         self.half_angle = _half_angle("CissoidCorridor", half_angle)
         self.a = _positive("CissoidCorridor", "a", a)
 
@@ -153,7 +154,9 @@ class CubicBlend(eqx.Module):
     a2: float = eqx.field(static=True)
     local: tuple[float, float, float, float] = eqx.field(static=True)
 
-    def __init__(self, sphere: KeepOutSphere, corridor: Corridor, a1, a2):
+    def __init__(
+        self, sphere: KeepOutSphere, corridor: Corridor, a1: RealScalarLike, a2: RealScalarLike
+    ):
         where = "CubicBlend"
         check_instance(where, "sphere", sphere, KeepOutSphere, "a KeepOutSphere")
         check_instance(
@@ -203,7 +206,14 @@ class CollisionAvoidance(eqx.Module):
     blend: CubicBlend
     beta: float = eqx.field(static=True)
 
-    def __init__(self, sphere, corridor, a1, a2, beta=None):
+    def __init__(
+        self,
+        sphere: KeepOutSphere,
+        corridor: Corridor,
+        a1: RealScalarLike,
+        a2: RealScalarLike,
+        beta: RealScalarLike | None = None,
+    ):
         where = "CollisionAvoidance"
         if not isinstance(sphere, KeepOutSphere):
             raise ValueError(f"{where}: `sphere` must be a KeepOutSphere, got {sphere!r}.")

@@ -25,6 +25,7 @@ import numpy as np
 import optax
 
 from .. import tune as tuning
+from .._custom_types import RealScalarLike
 from .._text import percent
 from .._versions import versions_sentence
 from ..montecarlo import MonteCarloResult, quaternion_states
@@ -379,7 +380,7 @@ def over_bounds_lines(report: dict) -> list[str]:
     ]
 
 
-def format_statistic(key: str, value, failed: int | None = None) -> str:
+def format_statistic(key: str, value: RealScalarLike | None, failed: int | None = None) -> str:
     """A report cell: `None` for a settling-time statistic means the samples it needs did not
     all settle (not "not applicable"), or, when its batch had `failed` > 0 failed samples
     (counted as never settling), that some of them failed: "not settled or failed". `failed`

@@ -60,6 +60,7 @@ from ..networks import (
     printed_form_ceiling,
     sampled_response,
 )
+from ..networks._types import MatrixLike
 from ..plants import AgentsState, SingleIntegratorAgents
 from ..simulation import ClosedLoop, Trajectory, simulate
 from ._io import write_report
@@ -99,7 +100,7 @@ TEXTBOOK_B = ((0.0, 0.0), (-0.375, -1.15))
 2001; Fridman, Seuret, Richard 2004; Fridman 2010), with $BK$ written as `TEXTBOOK_B`."""
 
 
-def network(l1: str = "corrected", rho1=RHO1) -> TwoLayerNetwork:
+def network(l1: str = "corrected", rho1: MatrixLike = RHO1) -> TwoLayerNetwork:
     """The example's network; `l1="printed"` uses the printed (non-Laplacian) $L_1$."""
     if l1 not in ("corrected", "printed"):
         raise ValueError(f'duan2024: `l1` must be "corrected" or "printed", got {l1!r}.')
@@ -127,7 +128,7 @@ def build(
     tau: float = TAU,
     dt: float = DT,
     seed: int = RANDOM_SEED,
-    rho1=RHO1,
+    rho1: MatrixLike = RHO1,
 ) -> ClosedLoop:
     """The closed loop (5): 12 single integrators under the two-layer protocol."""
     link = SampledLink(schedule(sampling, tau, dt, seed))

@@ -36,6 +36,7 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 
+from .._custom_types import RealScalarLike
 from ..controllers import ProximitySlidingMode, SlidingModeTracking, TranslationalSlidingMode
 from ..metrics import settling_time
 from ..montecarlo import quaternion_states, run_batch
@@ -95,13 +96,21 @@ def plant() -> Proximity:
     )
 
 
-def reference(radius=RADIUS) -> FlyAround:
+def reference(radius: RealScalarLike = RADIUS) -> FlyAround:
+    """The fly-around reference: a circle of `radius` [m] about the target at `RATE`."""
     return FlyAround(
         A, E, INCLINATION, RAAN, ARGP, radius=radius, rate=RATE, normal=jnp.array(NORMAL)
     )
 
 
-def build(*, radius=RADIUS, c=0.05, k=0.05, lam=0.1, k_att=0.2) -> ClosedLoop:
+def build(
+    *,
+    radius: RealScalarLike = RADIUS,
+    c: RealScalarLike = 0.05,
+    k: RealScalarLike = 0.05,
+    lam: RealScalarLike = 0.1,
+    k_att: RealScalarLike = 0.2,
+) -> ClosedLoop:
     """The fly-around closed loop (gains as in the module docstring)."""
     model = plant()
     model_orbit = RelativeOrbit(A, E)  # the law knows the undisturbed relative motion

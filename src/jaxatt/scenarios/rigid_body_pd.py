@@ -18,6 +18,7 @@ import jax
 import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
+from jaxtyping import ArrayLike, Bool
 
 from ..controllers import MRPPD
 from ..metrics import control_effort, overshoot, peak, settling_time
@@ -156,7 +157,7 @@ def reproduce(
     return written
 
 
-def monte_carlo_summary(batch_metrics: dict, successful) -> dict:
+def monte_carlo_summary(batch_metrics: dict, successful: Bool[ArrayLike, " n"]) -> dict:
     """The `monte_carlo` entry of `metrics.json` from the batch's metrics and success flags.
 
     A failed sample counts at its worst: never settled (an infinite settling time, also where

@@ -61,6 +61,7 @@ import jax.tree_util as jtu
 import numpy as np
 from jaxtyping import ArrayLike, Float, Real
 
+from .._custom_types import RealScalarLike
 from ..controllers import (
     PAPER_ALPHA_BAR,
     SHARP_ALPHA_BAR,
@@ -582,7 +583,11 @@ def simulate_variants(
 
 
 def run(
-    *, horizon: float = HORIZON, dt: float = DT, cases=CASES, progress: bool = False
+    *,
+    horizon: float = HORIZON,
+    dt: float = DT,
+    cases: Sequence[str] = CASES,
+    progress: bool = False,
 ) -> dict[str, Run]:
     """Simulate each case (see `simulate_variants`); returns `{case: Run}`."""
     del progress  # two compiled programs; nothing to report in between
@@ -690,7 +695,9 @@ def claims(metrics: dict) -> dict:
     return out
 
 
-def observer_floor(dts=FLOOR_DTS, *, horizon: float = FLOOR_HORIZON) -> dict:
+def observer_floor(
+    dts: Sequence[RealScalarLike] = FLOOR_DTS, *, horizon: float = FLOOR_HORIZON
+) -> dict:
     r"""The observer's error floor against the step: case 1 without the smoother over
     `horizon` s at each `dt`; the floor is $\max_i|\hat T_{d,i} - \bar T_{d,i}|$ over the last
     10 s. Returns the dts, floors, each run's `result` (its status name), and the least-squares

@@ -24,6 +24,7 @@ slow smoother cannot hide a slow manoeuvre), on the saved grid.
 """
 
 import pathlib
+from collections.abc import Sequence
 
 import equinox as eqx
 import jax
@@ -34,6 +35,7 @@ import optax
 from jaxtyping import Array, Float, PyTree
 
 from .. import tune as tuning
+from .._custom_types import RealScalarLike
 from .._versions import versions_sentence
 from ..metrics import convergence_time
 from ..numerics import amax
@@ -200,7 +202,7 @@ def run(
     validation_samples: int = 1,
     resume: bool = False,
     progress: bool = False,
-    weights=WEIGHTS,
+    weights: Sequence[RealScalarLike] = WEIGHTS,
     optimizer: str = "default",
 ) -> dict:
     """One tuning run per penalty weight; writes `tuning.json` (gains, losses, the trade-off

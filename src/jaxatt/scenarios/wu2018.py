@@ -71,14 +71,17 @@ $P_1 = 0.01$, $P_2 = 0.09$; $a_1 = 48.9$, $a_2 = 49$, $a_3 = 50$ m, $\theta = \p
 
 import math
 import pathlib
-from typing import ClassVar
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, ClassVar
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
+from jaxtyping import ArrayLike, Bool, Float
 
+from .._custom_types import RealScalarLike, Vector3Like
 from ..controllers import SafeApproachSlidingMode
 from ..metrics import settling_time
 from ..montecarlo import run_batch
@@ -98,6 +101,10 @@ from ..signals import AbstractSignal
 from ..simulation import ClosedLoop, Simulation, Status, Trajectory
 from ._io import write_report
 from ._protocol import Scenario
+
+
+if TYPE_CHECKING:  # annotations only: importing jaxatt.scenarios imports no matplotlib
+    import matplotlib.axes
 
 
 TITLE = "Wu, Song & Sun 2018: safe approach with a collision-avoidance function (reconstructed)"
@@ -149,7 +156,13 @@ class SafeApproachReference(AbstractReference):
     n: float
     output_type: ClassVar[type] = PoseReference
 
-    def __init__(self, position, n, hold=None, release=0.0):
+    def __init__(
+        self,
+        position: Vector3Like,
+        n: RealScalarLike,
+        hold: Vector3Like | None = None,
+        release: RealScalarLike = 0.0,
+    ):
         self.position = jnp.asarray(position, dtype=float)
         self.hold = self.position if hold is None else jnp.asarray(hold, dtype=float)
         self.release = jnp.asarray(release, dtype=float)
@@ -223,7 +236,9 @@ def build(avoidance: bool = True, hold_point: bool = False, **options) -> Closed
     return ClosedLoop(plant(), controller(avoidance, **options), reference)
 
 
-def initial_state(position) -> ProximityState:
+def initial_state(position: Vector3Like) -> ProximityState:
+    """The paper's start at the Hill `position` [m]: zero relative velocity, attitude
+    `SIGMA0`, rate `OMEGA0`."""
     return ProximityState(
         relative_orbit_state(0.0, jnp.asarray(position, dtype=float), jnp.zeros(3)),
         QuaternionState(quat_from_mrp(jnp.array(SIGMA0)), jnp.array(OMEGA0)),
@@ -244,7 +259,12 @@ def _integrate_batch(loops: ClosedLoop, x0s: ProximityState, sim: Simulation) ->
 
 
 def simulate_batch(
-    starts, *, avoidance=True, hold_point=False, dt: float = DT, horizon: float = HORIZON
+    starts: Float[ArrayLike, "*n 3"] | Sequence[Vector3Like],
+    *,
+    avoidance: bool | Bool[ArrayLike, "*n"] = True,
+    hold_point: bool | Bool[ArrayLike, "*n"] = False,
+    dt: float = DT,
+    horizon: float = HORIZON,
 ) -> Trajectory:
     """Fly the law from each start (an (N, 3) array of Hill positions [m], zero velocity,
     the paper's attitude) in one compiled, vmapped program; `avoidance` and `hold_point` are
@@ -494,7 +514,13 @@ def _meridian(traj_rho: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return traj_rho[..., 0], np.hypot(traj_rho[..., 1], traj_rho[..., 2])
 
 
-def plot_safe_set(ax, *, x_range=(-5.0, 70.0), r_max=40.0, resolution=600) -> None:
+def plot_safe_set(
+    ax: "matplotlib.axes.Axes",
+    *,
+    x_range: tuple[RealScalarLike, RealScalarLike] = (-5.0, 70.0),
+    r_max: RealScalarLike = 40.0,
+    resolution: int = 600,
+) -> None:
     """Shade the forbidden set $h \\le 0$ in the meridian half-plane $(x, r)$ of the target
     body frame (the set is symmetric about the docking axis $x$)."""
     xs = np.linspace(*x_range, resolution)

@@ -41,6 +41,7 @@ import pathlib
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, ArrayLike, Float
 
 from ..controllers import AdaptiveTerminalSixDof
 from ..metrics import settling_time
@@ -178,14 +179,14 @@ def run(gains: dict | None = None, horizon: float = HORIZON, **options) -> Traje
 
 
 def tuning_objective(
-    values,
+    values: Float[ArrayLike, " n"],
     *,
     horizon: float = 50.0,
     dt: float = DT,
     boundary: float = 1e-3,
     position_time: float = 50.0,
     attitude_time: float = 35.0,
-):
+) -> tuple[Float[Array, ""], dict[str, Float[Array, ""]]]:
     r"""Smooth loss of the paper's claims for the gains `values` (an array in the order of
     `TUNED_PARAMETERS`), with the attitude sign replaced by a boundary layer of `boundary`
     rad/s so that the loss is differentiable:

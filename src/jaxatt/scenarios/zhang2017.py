@@ -46,11 +46,14 @@ closed form of the reaching law and its forward-Euler (held control) value.
 
 import math
 import pathlib
+from collections.abc import Sequence
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import ArrayLike, Float
 
+from .._custom_types import RealScalarLike
 from ..controllers import FractionalSlidingMode, TranslationalSlidingMode
 from ..metrics import settling_time
 from ..plants import RelativeOrbit, RelativeOrbitState
@@ -96,10 +99,10 @@ def build(
     controller: str = "pd",
     disturbed: bool = False,
     *,
-    slope=SLOPE,
-    k=K,
-    eps=EPS,
-    alpha=ALPHA,
+    slope: RealScalarLike = SLOPE,
+    k: RealScalarLike = K,
+    eps: RealScalarLike = EPS,
+    alpha: RealScalarLike = ALPHA,
     horizon: float = HORIZON,
     memory: float | None = None,
     caputo: bool = True,
@@ -146,7 +149,11 @@ ALPHA_STUDY = (0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
 ALPHA_STUDY_HORIZON = 60.0
 
 
-def alpha_study(alphas=ALPHA_STUDY, horizon: float = ALPHA_STUDY_HORIZON, disturbed=False) -> dict:
+def alpha_study(
+    alphas: Sequence[RealScalarLike] = ALPHA_STUDY,
+    horizon: float = ALPHA_STUDY_HORIZON,
+    disturbed: bool = False,
+) -> dict:
     """Convergence time (to 10 m) and control energy of PD$^\\alpha$ as functions of
     $\\alpha$ (the trade-off of the abstract), with PD for reference: one compiled program
     vmapped over `alphas` (full memory over `horizon`)."""
@@ -170,7 +177,9 @@ def alpha_study(alphas=ALPHA_STUDY, horizon: float = ALPHA_STUDY_HORIZON, distur
     }
 
 
-def first_zero_times(ts, s, band: float = 0.0) -> np.ndarray:
+def first_zero_times(
+    ts: Float[ArrayLike, " t"], s: Float[ArrayLike, "t k"], band: float = 0.0
+) -> Float[np.ndarray, " k"]:
     """Per column, the first time `s` reaches 0 from its initial sign; inf if it never does.
 
     A sign change is located by linear interpolation between the two samples around it. A
@@ -196,12 +205,19 @@ def first_zero_times(ts, s, band: float = 0.0) -> np.ndarray:
     return np.array(out)
 
 
-def reaching_time_closed_form(s0, k=K, eps=EPS) -> np.ndarray:
+def reaching_time_closed_form(
+    s0: Float[ArrayLike, "*k"], k: RealScalarLike = K, eps: RealScalarLike = EPS
+) -> Float[np.ndarray, "*k"]:
     """$T = \\ln(1 + k|s_0|/\\varepsilon)/k$ (continuous reaching law)."""
     return np.asarray(Exponential(k, eps).convergence_time(jnp.asarray(s0)))
 
 
-def reaching_time_held(s0, k=K, eps=EPS, h=STEP) -> np.ndarray:
+def reaching_time_held(
+    s0: Float[ArrayLike, "*k"],
+    k: RealScalarLike = K,
+    eps: RealScalarLike = EPS,
+    h: RealScalarLike = STEP,
+) -> Float[np.ndarray, " m"]:
     """First zero of the forward-Euler sequence $s_{j+1} = s_j - h(\\varepsilon + k s_j)$
     ($s > 0$; the reaching law under a held control), linearly interpolated in the step."""
     out = []

@@ -59,6 +59,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._custom_types import Vector3Like
 from ..controllers import PoseSlidingMode
 from ..metrics import settling_time
 from ..orbits import MU_EARTH, OrbitalElements, elements_to_state, mean_motion
@@ -245,10 +246,10 @@ def build(
 
 
 def initial_state(
-    position_error=POSITION_ERROR0,
-    velocity_error=VELOCITY_ERROR0,
-    attitude_error=ATTITUDE_ERROR0,
-    rate_error=RATE_ERROR0,
+    position_error: Vector3Like = POSITION_ERROR0,
+    velocity_error: Vector3Like = VELOCITY_ERROR0,
+    attitude_error: Vector3Like = ATTITUDE_ERROR0,
+    rate_error: Vector3Like = RATE_ERROR0,
 ) -> RelativePoseState:
     """Table 1 (decision 8): the chaser on the orbit of the elements with $\\sigma_p = 0$,
     $\\omega_p = 0$, and the given errors; the target state follows."""

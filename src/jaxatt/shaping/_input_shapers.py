@@ -62,7 +62,7 @@ class ZeroVibration(AbstractImpulseShaper):
     frequency: Float[Array, ""]
     damping: Float[Array, ""]
 
-    def __init__(self, frequency, damping=0.0):
+    def __init__(self, frequency: RealScalarLike, damping: RealScalarLike = 0.0):
         self.frequency, self.damping = check_mode("ZeroVibration", frequency, damping)
 
     def impulses(self):
@@ -78,7 +78,7 @@ class ZeroVibrationDerivative(AbstractImpulseShaper):
     frequency: Float[Array, ""]
     damping: Float[Array, ""]
 
-    def __init__(self, frequency, damping=0.0):
+    def __init__(self, frequency: RealScalarLike, damping: RealScalarLike = 0.0):
         self.frequency, self.damping = check_mode("ZeroVibrationDerivative", frequency, damping)
 
     def impulses(self):

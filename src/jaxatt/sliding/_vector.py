@@ -11,6 +11,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
+from .._custom_types import RealScalarLike
 from .._validation import (
     check_flag,
     check_gain_shape,
@@ -123,7 +124,14 @@ class FractionalSurface(eqx.Module):
     capacity: int = eqx.field(static=True)
     caputo: bool = eqx.field(static=True)
 
-    def __init__(self, slope, order, step: float, capacity: int, caputo: bool = True):
+    def __init__(
+        self,
+        slope: Float[ArrayLike, "*k"],
+        order: RealScalarLike,
+        step: float,
+        capacity: int,
+        caputo: bool = True,
+    ):
         where = "FractionalSurface"
         self.slope = check_gain_shape(where, "slope", check_positive(where, "slope", slope))
         # One order: the Grunwald-Letnikov weights are one sequence (a (3,) order failed in

@@ -2,7 +2,7 @@
 
 import os
 import pathlib
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -24,7 +24,7 @@ class NoCheckpointError(FileNotFoundError):
     - `paths`: the checkpoint files that were looked for (none exists).
     """
 
-    def __init__(self, message: str, paths):
+    def __init__(self, message: str, paths: Sequence[str | os.PathLike]):
         super().__init__(message)
         self.paths = [pathlib.Path(p) for p in paths]
 
@@ -42,7 +42,7 @@ class CheckpointMismatchError(ValueError):
     - `path`: the checkpoint that does not match.
     """
 
-    def __init__(self, message: str, path):
+    def __init__(self, message: str, path: str | os.PathLike):
         super().__init__(message)
         self.path = pathlib.Path(path)
 
