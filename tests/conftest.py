@@ -2,7 +2,7 @@
 
 The suite compiles exactly what users run: no compiler flag is set here. `.ci/run` sets three in
 the open (`XLA_FLAGS="--xla_cpu_use_fusion_emitters=false --xla_backend_optimization_level=0
---xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=1000000"`, XLA:CPU's
+--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=500000"`, XLA:CPU's
 faster-compiling code generator, no LLVM optimization, and one kernel per small time loop;
 docs/testing.md), and `tests/test_xla_codegen.py` checks that they give the numbers of XLA's
 defaults.
