@@ -1,10 +1,14 @@
-"""Every public function and every public class's own `__init__` annotates its arguments
-(jaxtyping on public signatures, docs/testing.md): the annotations are what the suite's
-jaxtyping hook checks, what a notebook's `?` shows and what the API pages print.
+"""Every public function, public class's own `__init__` and public method that introduces a
+name annotates its arguments (jaxtyping on public signatures, docs/testing.md): the
+annotations are what the suite's jaxtyping hook checks, what a notebook's `?` shows and what
+the API pages print.
 
 Public means reachable without an underscore: a name without one in a module whose dotted
 path has none (`jaxatt.scenarios.wu2018.initial_state`, `jaxatt.safety.KeepOutSphere`, the
-latter defined in `jaxatt.safety._sets`). Methods other than `__init__` are not audited here.
+latter defined in `jaxatt.safety._sets`). A public class's methods (and `__call__`) are
+audited where they introduce a name; an override takes the annotations of the method it
+overrides, which states the contract once (`AbstractController.__call__`,
+`AbstractMetric.stream_update`, `AbstractTransform.forward`).
 """
 
 import importlib
@@ -47,9 +51,9 @@ def _gaps() -> dict[str, list[str]]:
             where = f"{obj.__module__}.{obj.__qualname__}"
             if inspect.isfunction(obj):
                 missing = _unannotated(obj, skip_first=False, need_return=True)
-            elif inspect.isclass(obj) and inspect.isfunction(vars(obj).get("__init__")):
-                where += ".__init__"
-                missing = _unannotated(obj.__init__, skip_first=True, need_return=False)
+            elif inspect.isclass(obj):
+                gaps.update(_class_gaps(obj, where))
+                continue
             else:
                 continue
             if missing:
@@ -57,7 +61,27 @@ def _gaps() -> dict[str, list[str]]:
     return gaps
 
 
-def test_public_functions_and_constructors_annotate_their_arguments():
+def _class_gaps(cls: type, where: str) -> dict[str, list[str]]:
+    gaps = {}
+    for name, function in vars(cls).items():
+        if not inspect.isfunction(function) and not isinstance(function, staticmethod):
+            continue
+        if name == "__init__":
+            missing = _unannotated(function, skip_first=True, need_return=False)
+        elif name.startswith("_") and name != "__call__":
+            continue
+        elif any(name in vars(base) for base in cls.__mro__[1:]):
+            continue  # an override: the base method states the contract
+        elif isinstance(function, staticmethod):
+            missing = _unannotated(function.__func__, skip_first=False, need_return=True)
+        else:
+            missing = _unannotated(function, skip_first=True, need_return=True)
+        if missing:
+            gaps[f"{where}.{name}"] = missing
+    return gaps
+
+
+def test_public_functions_constructors_and_methods_annotate_their_arguments():
     assert _gaps() == {}
 
 
@@ -71,3 +95,18 @@ def test_the_audit_sees_an_unannotated_function(monkeypatch):
     first_zero_times.__qualname__ = "first_zero_times"
     monkeypatch.setattr(module, "first_zero_times", first_zero_times)
     assert _gaps() == {"jaxatt.scenarios.zhang2017.first_zero_times": ["ts", "s", "return"]}
+
+
+def test_the_audit_sees_an_unannotated_method_but_not_an_override(monkeypatch):
+    import jaxatt.safety as module
+
+    class Planted(module.ConeCorridor):
+        def profile(self, x):  # an override: ConeCorridor.profile states the contract
+            return x
+
+        def width(self, x):  # a name of its own
+            return x
+
+    Planted.__module__, Planted.__qualname__ = module.ConeCorridor.__module__, "Planted"
+    monkeypatch.setattr(module, "Planted", Planted, raising=False)
+    assert _gaps() == {"jaxatt.safety._sets.Planted.width": ["x", "return"]}

@@ -38,7 +38,7 @@ from typing import ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
-from jaxtyping import Array, ArrayLike, Float
+from jaxtyping import Array, ArrayLike, Float, PyTree
 
 from .._custom_types import Mat33, RealScalarLike, Scalar, Vec3
 from .._validation import check_flag, check_gain_shape, check_nonnegative, check_positive, check_spd
@@ -99,10 +99,10 @@ class AbstractAdaptiveTanhSlidingMode(AbstractController):
     reference_type: ClassVar[type] = AttitudeReference
 
     @abc.abstractmethod
-    def attitude_errors(self, measurement, reference: AttitudeReference) -> _AttitudeErrors:
+    def attitude_errors(self, measurement: PyTree, reference: AttitudeReference) -> _AttitudeErrors:
         """Attitude error vector, $R$, rate error and the error vector's rate."""
 
-    def sliding_variable(self, measurement, reference: AttitudeReference) -> Vec3:
+    def sliding_variable(self, measurement: PyTree, reference: AttitudeReference) -> Vec3:
         """$s = \\omega_e + \\lambda\\sigma_e$ [rad/s]."""
         errors = self.attitude_errors(measurement, reference)
         return errors.omega_e + self.slope * errors.sigma

@@ -54,37 +54,39 @@ class AbstractController(eqx.Module):
     reference_type: ClassVar[type] = object
 
     @abc.abstractmethod
-    def init(self, t0: RealScalarLike, measurement: PyTree[Array], reference) -> PyTree[Array]:
+    def init(
+        self, t0: RealScalarLike, measurement: PyTree[Array], reference: PyTree
+    ) -> PyTree[Array]:
         """Internal state at the initial time."""
 
     @abc.abstractmethod
     def __call__(
-        self, t: RealScalarLike, measurement: PyTree[Array], reference, state: PyTree[Array]
+        self, t: RealScalarLike, measurement: PyTree[Array], reference: PyTree, state: PyTree[Array]
     ) -> tuple[Float[Array, "..."], PyTree[Array]]:
         """Commanded control and continuous internal-state derivative."""
 
     def update(
-        self, t: RealScalarLike, measurement: PyTree[Array], reference, state: PyTree[Array]
+        self, t: RealScalarLike, measurement: PyTree[Array], reference: PyTree, state: PyTree[Array]
     ) -> PyTree[Array]:
         """Discrete state update at completed steps or sample instants (default: none)."""
         del t, measurement, reference
         return state
 
     def signals(
-        self, t: RealScalarLike, measurement: PyTree[Array], reference, state: PyTree[Array]
+        self, t: RealScalarLike, measurement: PyTree[Array], reference: PyTree, state: PyTree[Array]
     ) -> dict[str, Array]:
         """Named internal signals to record (default: none)."""
         del t, measurement, reference, state
         return {}
 
     def admissible(
-        self, t: RealScalarLike, measurement: PyTree[Array], reference, state: PyTree[Array]
+        self, t: RealScalarLike, measurement: PyTree[Array], reference: PyTree, state: PyTree[Array]
     ) -> Bool[Array, ""]:
         """Whether the law's guarantees hold at this state (default: always)."""
         del t, measurement, reference, state
         return jnp.array(True)
 
-    def check_initial(self, t0: float, measurement: PyTree[Array], reference) -> None:
+    def check_initial(self, t0: float, measurement: PyTree[Array], reference: PyTree) -> None:
         """Refuse an inadmissible concrete initial state with a `ValueError` (default: accept)."""
         del t0, measurement, reference
 

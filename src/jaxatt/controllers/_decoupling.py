@@ -176,7 +176,7 @@ class DecoupledSlidingMode(AbstractDecoupledLaw):
             return self.surface.init(t0, e, e_dot)
         return None
 
-    def sliding_variable(self, t: RealScalarLike, e: Vec3, e_dot: Vec3, state) -> Vec3:
+    def sliding_variable(self, t: RealScalarLike, e: Vec3, e_dot: Vec3, state: PyTree) -> Vec3:
         """$s$ (or $s_g$) at `t`."""
         if isinstance(self.surface, GlobalSurface):
             return self.surface(state, t, e, e_dot)

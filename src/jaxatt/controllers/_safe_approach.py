@@ -55,7 +55,7 @@ from typing import ClassVar
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-from jaxtyping import Array, Float
+from jaxtyping import Array, ArrayLike, Float
 
 from .._custom_types import RealScalarLike
 from .._validation import (
@@ -231,7 +231,7 @@ class SafeApproachSlidingMode(AbstractController):
         check_spd(where, "model.body.inertia", model.body.inertia)
 
     # -- the avoidance term -------------------------------------------------------------------
-    def normalised_h(self, rho) -> Float[Array, ""]:
+    def normalised_h(self, rho: Float[ArrayLike, "3"]) -> Float[Array, ""]:
         r"""$\hat h = h/N$ [m], the collision-avoidance function as a distance (**[R]**).
 
         $N = \sqrt{C^2\,4\|P\|^2 + O^2(4r^2 + F'(x)^2) + (h/L)^2}$ estimates $\|\nabla h\| =
@@ -253,14 +253,14 @@ class SafeApproachSlidingMode(AbstractController):
         )
         return h / jnp.sqrt(scale2)
 
-    def potential(self, rho) -> Float[Array, ""]:
+    def potential(self, rho: Float[ArrayLike, "3"]) -> Float[Array, ""]:
         r"""$\frac{k_h}{2}\max(0, 1/\hat h - 1/\hat h_0)^2$ [m$^2$/s]: its gradient is
         $k_h(1/\hat h - 1/\hat h_0)\nabla(1/\hat h)$ inside the influence distance $\hat h_0$,
         zero outside (Khatib's repulsive potential on $1/\hat h$)."""
         excess = maximum(1.0 / self.normalised_h(rho) - 1.0 / self.influence, 0.0)
         return 0.5 * self.k_h * excess**2
 
-    def barrier(self, rho) -> Float[Array, "3"]:
+    def barrier(self, rho: Float[ArrayLike, "3"]) -> Float[Array, "3"]:
         r"""The avoidance velocity term $\nabla\Phi(\rho)$ [m/s] (points towards the keep-out
         set; unbounded at its boundary)."""
         return jax.grad(self.potential)(rho)

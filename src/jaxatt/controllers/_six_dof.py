@@ -12,6 +12,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
+from .._custom_types import Vec3
 from .._validation import (
     check_flag,
     check_gain_shape,
@@ -149,15 +150,15 @@ class AdaptiveTerminalSixDof(AbstractController):
 
     # --- errors and surfaces --------------------------------------------------------------
 
-    def translation_errors(self, y: SixDofState, r: PoseReference):
+    def translation_errors(self, y: SixDofState, r: PoseReference) -> tuple[Vec3, Vec3]:
         c = quat_to_dcm(y.q)
         return y.r - r.translation.position, c.T @ y.v - r.translation.velocity
 
-    def attitude_errors(self, y: SixDofState, r: PoseReference):
+    def attitude_errors(self, y: SixDofState, r: PoseReference) -> tuple[Vec3, Vec3]:
         e = attitude_error_quat(y.q, r.attitude.q_d)
         return e[1:], rate_error(e, y.omega, r.attitude.omega_d)
 
-    def surfaces(self, y: SixDofState, r: PoseReference):
+    def surfaces(self, y: SixDofState, r: PoseReference) -> tuple[Vec3, Vec3]:
         big_r, big_r_dot = self.translation_errors(y, r)
         qv, omega_e = self.attitude_errors(y, r)
         s1 = self.surface(big_r, big_r_dot)

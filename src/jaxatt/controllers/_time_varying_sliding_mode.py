@@ -29,7 +29,7 @@ from typing import ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
-from jaxtyping import Array, ArrayLike, Float
+from jaxtyping import Array, ArrayLike, Float, PyTree
 
 from .._custom_types import RealScalarLike, Vec3
 from .._validation import check_in_open_interval, check_positive
@@ -127,7 +127,7 @@ class TimeVaryingSlidingMode(AbstractController):
         del t0, measurement, reference
         return TimeVaryingSlidingModeState(k=self.k0, p2=self.p2_0)
 
-    def error_vector(self, measurement, reference: AttitudeReference) -> Vec3:
+    def error_vector(self, measurement: PyTree, reference: AttitudeReference) -> Vec3:
         """$\\mathbf q$, the vector part of $q_c^{-1}\\otimes q$."""
         return attitude_error_quat(measurement.q, reference.q_d)[1:]
 

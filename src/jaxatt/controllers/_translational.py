@@ -71,7 +71,9 @@ class TranslationalSlidingMode(AbstractController):
         )
         self.model, self.surface, self.reaching_law = model, surface, reaching_law
 
-    def errors(self, y: RelativeOrbitState, r: TranslationReference):
+    def errors(
+        self, y: RelativeOrbitState, r: TranslationReference
+    ) -> tuple[Float[Array, "3"], Float[Array, "3"]]:
         return y.rho - r.position, y.rho_dot - r.velocity
 
     def init(self, t0, measurement, reference) -> None:
@@ -193,7 +195,9 @@ class FractionalSlidingMode(AbstractController):
     def alpha(self) -> Float[Array, ""]:
         return self.surface.order
 
-    def errors(self, y: RelativeOrbitState, r: TranslationReference):
+    def errors(
+        self, y: RelativeOrbitState, r: TranslationReference
+    ) -> tuple[Float[Array, "3"], Float[Array, "3"]]:
         return y.rho - r.position, y.rho_dot - r.velocity
 
     def _evaluate(self, surface_state, bracket_memory, e, e_dot):

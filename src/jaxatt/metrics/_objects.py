@@ -29,12 +29,12 @@ order of a sum). [`jaxatt.montecarlo.monte_carlo`][] streams by default; a metri
 """
 
 import abc
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-from jaxtyping import Array, Float, PyTree
+from jaxtyping import Array, ArrayLike, Float, PyTree
 
 from .._custom_types import RealScalarLike
 from .._validation import check_less_than, check_positive_scalar
@@ -42,6 +42,10 @@ from ..numerics import amax, maximum, safe_norm
 from ._chattering import chattering, holds_save_interval, in_window, window_bound
 from ._effort import control_effort
 from ._settling import convergence_time, decay_extrapolation, settling_time, time_outside
+
+
+if TYPE_CHECKING:  # annotations only: jaxatt.simulation imports this module
+    from ..simulation import Trajectory
 
 
 def _check_axes(where: str, axes) -> int | tuple[int, ...] | None:
@@ -153,10 +157,10 @@ class AbstractMetric(eqx.Module):
     `stream_value`); if not, batch runners reduce a saved trajectory with `__call__`."""
 
     @abc.abstractmethod
-    def __call__(self, traj) -> Array:
+    def __call__(self, traj: "Trajectory") -> Array:
         """The metric of one (unbatched) trajectory."""
 
-    def check_record(self, where: str, name: str, ts) -> None:
+    def check_record(self, where: str, name: str, ts: Float[ArrayLike, " T"]) -> None:
         """Raise a `ValueError` if the metric cannot measure a record saved at the times `ts`
         [s] (a NumPy array, known before compiling); the batch runners' entry points call it.
         By default every record will do."""

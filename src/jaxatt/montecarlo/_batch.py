@@ -106,7 +106,7 @@ class MetricStream(AbstractStream):
     def update(self, state, t, signals):
         return {name: m.stream_update(state[name], t, signals) for name, m in self.metrics.items()}
 
-    def values(self, state, ok: Array) -> dict[str, Array]:
+    def values(self, state: PyTree, ok: Array) -> dict[str, Array]:
         """Per-sample values; a failed sample gets each metric's `failure_value`."""
         return {
             name: _failed_as(metric.stream_value(state[name]), ok, metric.failure_value)

@@ -38,7 +38,7 @@ from typing import ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
-from jaxtyping import Array, ArrayLike, Float
+from jaxtyping import Array, ArrayLike, Float, PyTree
 
 from .._custom_types import RealScalarLike, Vec3
 from .._validation import (
@@ -151,7 +151,11 @@ class IntegralSlidingModeObserver(AbstractObserver):
         return IntegralSlidingModeState(v=self.inertia @ omega, integral=zero, d_hat=zero)
 
     def surfaces(
-        self, t: RealScalarLike, measurement, control: Vec3, state: IntegralSlidingModeState
+        self,
+        t: RealScalarLike,
+        measurement: PyTree,
+        control: Vec3,
+        state: IntegralSlidingModeState,
     ) -> tuple[Vec3, Vec3, Vec3, Vec3]:
         r"""$(s_0, \dot s_0, s_1, \dot v)$ at the measured state and commanded torque."""
         omega = measurement.omega
@@ -163,7 +167,11 @@ class IntegralSlidingModeObserver(AbstractObserver):
         return s0, s0_dot, s1, v_dot
 
     def __call__(
-        self, t: RealScalarLike, measurement, control: Vec3, state: IntegralSlidingModeState
+        self,
+        t: RealScalarLike,
+        measurement: PyTree,
+        control: Vec3,
+        state: IntegralSlidingModeState,
     ) -> IntegralSlidingModeState:
         s0, s0_dot, s1, v_dot = self.surfaces(t, measurement, control, state)
         integral_dot = self.k1 * sig_pow(s0, self.alpha1) + self.k2 * sig_pow(s0_dot, self.alpha2)

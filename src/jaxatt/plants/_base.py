@@ -63,7 +63,9 @@ class AbstractPlant(eqx.Module):
         """The measurement a controller reads (full-state feedback returns the state)."""
 
     @abc.abstractmethod
-    def signals(self, t: RealScalarLike, state: PyTree[Array], reference) -> dict[str, Array]:
+    def signals(
+        self, t: RealScalarLike, state: PyTree[Array], reference: PyTree
+    ) -> dict[str, Array]:
         """Named outputs recorded at the save times."""
 
     @abc.abstractmethod

@@ -411,7 +411,9 @@ class FlexibleSloshSpacecraft(AbstractPlant):
             -jnp.cross(omega, momentum) - delta.T @ psi_dot - b.T @ zeta_dot + self.disturbance(t)
         )
 
-    def angular_acceleration(self, t: RealScalarLike, state: FlexibleSloshState, torque: Vec3):
+    def angular_acceleration(
+        self, t: RealScalarLike, state: FlexibleSloshState, torque: Vec3
+    ) -> Vec3:
         """$\\dot\\omega$ [rad/s^2] under the applied torque $\\tau$ [N m]."""
         rates = self.internal_rates(state)
         return solve3(self.inertia_at(t), self._hub_torque(t, state, rates) + torque)
@@ -468,7 +470,9 @@ class FlexibleSloshSpacecraft(AbstractPlant):
             zeta=check_batched_shape(where, f"{name}.zeta", state.zeta, (n,), batch_shape),
         )
 
-    def rest_state(self, q: Float[ArrayLike, "4"], omega=None) -> FlexibleSloshState:
+    def rest_state(
+        self, q: Float[ArrayLike, "4"], omega: Vector3Like | None = None
+    ) -> FlexibleSloshState:
         r"""Hub at `q` with rate `omega` (default 0), slosh and modes at rest
         ($\dot\eta = \dot n = 0$, so $\psi = A^{-1}\delta\omega$, $\zeta = B_s\omega$)."""
         q = jnp.asarray(q, self.inertia.dtype)

@@ -80,16 +80,20 @@ class Proximity(AbstractPlant):
             for n, v in (("i", i), ("raan", raan), ("argp", argp))
         )
 
-    def hill_rotation(self, theta) -> Float[Array, "3 3"]:
+    def hill_rotation(self, theta: RealScalarLike) -> Float[Array, "3 3"]:
         """$C_{HN}(\\theta)$, inertial to Hill components."""
         return hill_rotation(theta, self.i, self.raan, self.argp)
 
-    def thrust_acceleration(self, state: ProximityState, force: Float[Array, "3"]):
+    def thrust_acceleration(
+        self, state: ProximityState, force: Float[Array, "3"]
+    ) -> Float[Array, "3"]:
         """$C_{HN}C_{BN}^T f_B/m$ [m/s^2] (Hill frame)."""
         c_bn = quat_to_dcm(state.attitude.q)
         return self.hill_rotation(state.orbit.theta) @ (c_bn.T @ force) / self.mass
 
-    def body_force(self, state: ProximityState, acceleration: Float[Array, "3"]):
+    def body_force(
+        self, state: ProximityState, acceleration: Float[Array, "3"]
+    ) -> Float[Array, "3"]:
         """The body-frame force giving the Hill-frame `acceleration`: $m C_{BN}C_{HN}^T u$."""
         c_bn = quat_to_dcm(state.attitude.q)
         return self.mass * c_bn @ (self.hill_rotation(state.orbit.theta).T @ acceleration)

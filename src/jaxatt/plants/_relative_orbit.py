@@ -98,7 +98,9 @@ class AbstractRelativeOrbit(AbstractPlant):
     def gravity(self, theta: RealScalarLike, rho: Float[Array, "3"]) -> Float[Array, "3"]:
         """The (differential) gravity term $g(\\theta, \\rho)$ of the model [m/s^2]."""
 
-    def anomaly_rates(self, theta: RealScalarLike):
+    def anomaly_rates(
+        self, theta: RealScalarLike
+    ) -> tuple[Float[Array, ""], Float[Array, ""], Float[Array, ""]]:
         """$(r_t, \\dot\\theta, \\ddot\\theta)$ of the target at true anomaly `theta`."""
         return anomaly_rates(theta, self.a, self.e, self.mu)
 
@@ -234,7 +236,9 @@ class RelativeOrbitJ2(AbstractRelativeOrbit):
         )
         self.disturbance = _disturbance("RelativeOrbitJ2", disturbance)
 
-    def j2_acceleration(self, theta, rho) -> Float[Array, "3"]:
+    def j2_acceleration(
+        self, theta: RealScalarLike, rho: Float[ArrayLike, "3"]
+    ) -> Float[Array, "3"]:
         """The chaser's $J_2$ acceleration in Hill components [m/s^2]."""
         r_t, _, _ = anomaly_rates(theta, self.a, self.e, self.mu)
         c_hn = hill_rotation(theta, self.i, self.raan, self.argp)

@@ -284,7 +284,9 @@ class RigidBodyQuaternion(AbstractPlant):
         `max_rate_error` $\\max_t\\|\\omega_e\\|$ [rad/s]."""
         return _attitude_metrics(tolerance)
 
-    def tracking_error(self, state: QuaternionState, reference) -> tuple[Quaternion, Vec3]:
+    def tracking_error(
+        self, state: QuaternionState, reference: AttitudeReference
+    ) -> tuple[Quaternion, Vec3]:
         """Error quaternion $e = q_d^{-1}\\otimes q$ and rate error $\\omega - C(e)\\omega_d$."""
         e = attitude_error_quat(state.q, reference.q_d)
         return e, rate_error(e, state.omega, reference.omega_d)
@@ -380,7 +382,7 @@ class RigidBodyMRP(AbstractPlant):
         `max_rate_error` $\\max_t\\|\\omega_e\\|$ [rad/s]."""
         return _attitude_metrics(tolerance)
 
-    def tracking_error(self, state: MRPState, reference) -> tuple[MRP, Vec3]:
+    def tracking_error(self, state: MRPState, reference: AttitudeReference) -> tuple[MRP, Vec3]:
         """MRP of $q_d^{-1}\\otimes q$ and the rate error $\\omega - C(\\sigma_e)\\omega_d$."""
         sigma_e = attitude_error_mrp(state.sigma, mrp_from_quat(reference.q_d))
         return sigma_e, rate_error_mrp(sigma_e, state.omega, reference.omega_d)

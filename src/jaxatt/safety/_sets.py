@@ -31,7 +31,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._custom_types import RealScalarLike
+from .._custom_types import RealScalarLike, Vector3Like
 from .._validation import check_instance, is_real_scalar
 from ..numerics import clip, maximum, minimum
 
@@ -70,7 +70,9 @@ class KeepOutSphere(eqx.Module):
     def __init__(self, radius: RealScalarLike):
         self.radius = _positive("KeepOutSphere", "radius", radius)
 
-    def factor(self, x, r2):
+    def factor(
+        self, x: Float[ArrayLike, "..."], r2: Float[ArrayLike, "..."]
+    ) -> Float[ArrayLike, "..."]:
         """$r^2 + x^2 - a_3^2$ [m$^2$]."""
         return r2 + x * x - self.radius**2
 
@@ -88,10 +90,10 @@ class ConeCorridor(eqx.Module):
     def __init__(self, half_angle: RealScalarLike):
         self.half_angle = _half_angle("ConeCorridor", half_angle)
 
-    def profile(self, x):
+    def profile(self, x: Float[ArrayLike, "..."]) -> Float[ArrayLike, "..."]:
         return math.tan(self.half_angle) ** 2 * x * abs(x)
 
-    def slope(self, x):
+    def slope(self, x: Float[ArrayLike, "..."]) -> Float[ArrayLike, "..."]:
         return 2.0 * math.tan(self.half_angle) ** 2 * abs(x)
 
 
@@ -110,10 +112,10 @@ class CissoidCorridor(eqx.Module):
         self.half_angle = _half_angle("CissoidCorridor", half_angle)
         self.a = _positive("CissoidCorridor", "a", a)
 
-    def profile(self, x):
+    def profile(self, x: Float[ArrayLike, "..."]) -> Float[ArrayLike, "..."]:
         return math.tan(self.half_angle) ** 2 * x**3 / (2.0 * self.a - x)
 
-    def slope(self, x):
+    def slope(self, x: Float[ArrayLike, "..."]) -> Float[ArrayLike, "..."]:
         return (
             math.tan(self.half_angle) ** 2
             * x**2
@@ -173,7 +175,7 @@ class CubicBlend(eqx.Module):
         self.a1, self.a2 = a1, a2
         self.local = (y0, m0, -3 * y0 - 2 * m0 + 3 * y1 - m1, 2 * y0 + m0 - 2 * y1 + m1)
 
-    def __call__(self, x):
+    def __call__(self, x: Float[ArrayLike, "..."]) -> Float[ArrayLike, "..."]:
         """$p(x)$ [m$^2$] (NumPy or JAX)."""
         t = (x - self.a1) / (self.a2 - self.a1)
         d0, d1, d2, d3 = self.local
@@ -278,7 +280,7 @@ class CollisionAvoidance(eqx.Module):
         h = self(position)
         return -self.gradient(position) / h**2
 
-    def check_safe(self, where: str, name: str, position) -> None:
+    def check_safe(self, where: str, name: str, position: Vector3Like) -> None:
         """Raise `ValueError` naming `name` when $h(P) \\le 0$ (concrete positions)."""
         import numpy as np
 

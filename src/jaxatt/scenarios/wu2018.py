@@ -79,7 +79,7 @@ import jax
 import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
-from jaxtyping import ArrayLike, Bool, Float
+from jaxtyping import Array, ArrayLike, Bool, Float
 
 from .._custom_types import RealScalarLike, Vector3Like
 from ..controllers import SafeApproachSlidingMode
@@ -168,11 +168,11 @@ class SafeApproachReference(AbstractReference):
         self.release = jnp.asarray(release, dtype=float)
         self.n = float(n)
 
-    def sigma_d(self, t):
+    def sigma_d(self, t: RealScalarLike) -> Float[Array, "3"]:
         w = 10.0 * self.n * t
         return 0.01 * jnp.stack([jnp.sin(w), -jnp.cos(w), jnp.sin(w)])
 
-    def omega_d(self, t):
+    def omega_d(self, t: RealScalarLike) -> Float[Array, "3"]:
         sigma, sigma_dot = jax.jvp(self.sigma_d, (t,), (jnp.ones_like(t),))
         # G^-1 = G^T / ((1 + |sigma|^2)/4)^2 (G G^T is that multiple of I): no LAPACK solve
         g = mrp_kinematics_matrix(sigma)

@@ -82,7 +82,7 @@ class AbstractClosedLoop(eqx.Module):
         """The outputs a zero-order hold keeps over one sample period."""
 
     @abc.abstractmethod
-    def vector_field(self, t: RealScalarLike, y: PyTree[Array], held) -> PyTree[Array]:
+    def vector_field(self, t: RealScalarLike, y: PyTree[Array], held: PyTree) -> PyTree[Array]:
         """$\\dot y$; `held` is `None` under continuous control."""
 
     @abc.abstractmethod
@@ -100,7 +100,7 @@ class AbstractClosedLoop(eqx.Module):
         """A [`Status`][] code for the state `y` at `t`."""
 
     @abc.abstractmethod
-    def signals(self, t: RealScalarLike, y: PyTree[Array], held) -> dict[str, Array]:
+    def signals(self, t: RealScalarLike, y: PyTree[Array], held: PyTree) -> dict[str, Array]:
         """Named outputs at a save time."""
 
     def default_metrics(self, tolerance: float) -> dict[str, AbstractMetric]:
@@ -108,7 +108,7 @@ class AbstractClosedLoop(eqx.Module):
         del tolerance
         return {}
 
-    def __call__(self, t, y, args):
+    def __call__(self, t: RealScalarLike, y: PyTree[Array], args: PyTree) -> PyTree[Array]:
         """`vector_field` with diffrax's `(t, y, args)` signature (`args` = held outputs)."""
         return self.vector_field(t, y, args)
 

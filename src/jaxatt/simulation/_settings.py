@@ -12,6 +12,7 @@ import diffrax as dfx
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
+from jax.typing import DTypeLike
 
 from .._validation import check_positive_int
 from ._performance import Performance
@@ -170,7 +171,7 @@ class Simulation(eqx.Module):
         `t0 + k save_every dt`, k = 0 .. n_saves - 1, as the loop computes them."""
         return self.t0 + np.arange(self.n_saves) * (self.save_every * self.dt)
 
-    def check_clock(self, dtype) -> None:
+    def check_clock(self, dtype: DTypeLike) -> None:
         r"""Refuse a clock that the loop's precision cannot resolve.
 
         The loop's times $t_i = t_0 + i\,dt$ are held in `dtype`, the precision of the states.

@@ -19,6 +19,8 @@ import jax.tree_util as jtu
 import numpy as np
 from jaxtyping import Array, PyTree
 
+from .._custom_types import RealScalarLike
+
 
 def _is_tolerance(value) -> bool:
     """A root finder's tolerance given as a number or an array (not diffrax's placeholder
@@ -53,12 +55,25 @@ class AbstractFixedStepSolver(eqx.Module):
     takes_start_derivative: ClassVar[bool] = False
 
     @abc.abstractmethod
-    def init(self, vector_field: VectorField, t0, dt, y0: PyTree[Array], args) -> PyTree:
+    def init(
+        self,
+        vector_field: VectorField,
+        t0: RealScalarLike,
+        dt: RealScalarLike,
+        y0: PyTree[Array],
+        args: PyTree,
+    ) -> PyTree:
         """Solver state carried between steps (`None` for one-step methods)."""
 
     @abc.abstractmethod
     def step(
-        self, vector_field: VectorField, t, dt, y: PyTree[Array], args, state: PyTree
+        self,
+        vector_field: VectorField,
+        t: RealScalarLike,
+        dt: RealScalarLike,
+        y: PyTree[Array],
+        args: PyTree,
+        state: PyTree,
     ) -> tuple[PyTree[Array], PyTree]:
         """`(y(t + dt), new_state)`."""
 
