@@ -3,9 +3,9 @@
 (`--xla_cpu_use_fusion_emitters=false`, which compile jaxatt's closed loops 15-22 % faster,
 benchmarks/README.md), LLVM's optimization level 0 instead of 2
 (`--xla_backend_optimization_level=0`, which compiles them about 30 % faster and runs them
-1.5-1.8x slower, a scalarized batch 6x), and the small-loop threshold that
-`jaxatt.enable_small_loop_kernels` sets (`--xla_backend_extra_options=
-xla_cpu_small_while_loop_byte_threshold=1000000`: a time loop of one trajectory runs as one
+1.5-1.8x slower, a scalarized batch 6x), and the small-loop threshold of
+`jaxatt.enable_small_loop_kernels`, at half its default (`--xla_backend_extra_options=
+xla_cpu_small_while_loop_byte_threshold=500000`: a time loop of one trajectory runs as one
 kernel, 2-4x faster at level 0). A user who runs jaxatt with none of them gets the same
 numbers: Chen's M1 closed
 loop (sliding, saturated, |s|^a), a scalarized vmapped batch of it and reverse-mode gradients
@@ -46,7 +46,7 @@ def _name(flag: str) -> str:
 SETTINGS = (
     "--xla_cpu_use_fusion_emitters=false",
     "--xla_backend_optimization_level=0",
-    "--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=1000000",
+    "--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=500000",
 )
 SETTING_NAMES = {_name(setting) for setting in SETTINGS}
 
