@@ -81,6 +81,8 @@ def _horner(z: Array, coefficients: tuple[float, ...]) -> Array:
     return result
 
 
+# Traced once per argument shape however often a step calls it (docs/performance.md).
+@jax.jit
 def _atan_of_ratio(y: Array, x: Array) -> Array:
     """atan(y/x) for y, x >= 0, not both 0 or both infinite (NaN gives NaN), by fdlibm
     `atan`'s reduction with the division folded in: by the interval of y/x,
@@ -112,6 +114,8 @@ def _atan_of_ratio(y: Array, x: Array) -> Array:
     return hi - ((t * (s1 + s2) - lo) - t)
 
 
+# Traced once per argument shape however often a step calls it (docs/performance.md).
+@jax.jit
 def _atan2_float64(y: Array, x: Array) -> Array:
     # A quarter of each (exact, a power of 2), so that x + 1.5 y cannot overflow. Inputs below
     # 4 times the smallest normal number then count as 0, as subnormal ones do in XLA:CPU's
@@ -133,6 +137,8 @@ def _atan2_float64(y: Array, x: Array) -> Array:
     return jnp.where(jnp.signbit(y), -z, z)
 
 
+# Traced once per argument shape however often a step calls it (docs/performance.md).
+@jax.jit
 def _acos_float64(x: Array) -> Array:
     a = jnp.abs(x)
     small = a < 0.5

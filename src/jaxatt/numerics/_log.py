@@ -33,6 +33,8 @@ _SMALLEST_NORMAL_BITS = 0x0010_0000_0000_0000
 _INF_BITS = 0x7FF0_0000_0000_0000
 
 
+# Traced once per argument shape however often a step calls it (docs/performance.md).
+@jax.jit
 def _log_float64(x: Array) -> Array:
     bits = lax.bitcast_convert_type(x, jnp.int64)
     negative = bits < 0  # the sign bit
@@ -133,6 +135,12 @@ def vectorized_atanh(x: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
     x = jnp.asarray(x)
     if x.dtype != jnp.float64:
         return jnp.arctanh(x)
+    return _atanh_float64(x)
+
+
+# Traced once per argument shape however often a step calls it (docs/performance.md).
+@jax.jit
+def _atanh_float64(x: Array) -> Array:
     magnitude = jnp.abs(x)
     w = x * x
     series = _ATANH_SERIES[-1]

@@ -11,6 +11,8 @@ def _slope_floor(dtype) -> Array:
     return jnp.sqrt(jnp.finfo(dtype).eps).astype(dtype)
 
 
+# Traced once per argument shape however often a step calls it (docs/performance.md).
+@jax.jit
 def _abs_pow_primal(ax: Array, a: Array) -> Array:
     r"""$|x|^a$ for $|x| \ge 0$ as $\exp(a \ln|x|)$, exactly 0 at $x = 0$ ($a > 0$), 1 for $a = 0$.
 

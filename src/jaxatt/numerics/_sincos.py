@@ -89,6 +89,8 @@ def _kernel_cos(x: Array, y: Array) -> Array:
     return w + (((1.0 - w) - half_z) + (z * r - x * y))
 
 
+# Traced once per argument shape however often a step calls it (docs/performance.md).
+@jax.jit
 def _sincos_float64(x: Array) -> tuple[Array, Array]:
     n, y0, y1 = _reduce(x)
     sin_y = _kernel_sin(y0, y1)

@@ -29,6 +29,7 @@ $p = a(1-e^2)$; $u$ is the thrust (or any non-gravitational) acceleration [m/s^2
 **Clohessy-Wiltshire** (linear, circular target): the same with $e = 0$, $\dot\theta = n$.
 """
 
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
@@ -60,13 +61,22 @@ def anomaly_rates(
     `theta` is finite; the same holds for the functions below that take an orbit.
     """
     check_orbit_arguments("anomaly_rates", theta=theta, a=a, e=e, mu=mu)
-    p = semi_latus_rectum(a, e)
+    return _anomaly_rates(theta, a, e, mu)
+
+
+@jax.jit
+def _anomaly_rates(theta, a, e, mu):
+    # `anomaly_rates` once its arguments are checked: a `jax.jit` function, traced once per
+    # argument shape however many times a closed loop's step evaluates it.
+    p = jnp.asarray(a) * (1.0 - jnp.asarray(e) ** 2)
     k2 = jnp.sqrt(mu / p**3)
     sin_theta, cos_theta = vectorized_sincos(theta)
     rho = 1.0 + e * cos_theta
     return p / rho, k2 * rho**2, -2.0 * k2**2 * e * sin_theta * rho**3
 
 
+# Traced once per argument shape however often a step calls it (docs/performance.md).
+@jax.jit
 def coriolis_matrices(
     theta_dot: RealScalarLike, theta_ddot: RealScalarLike
 ) -> tuple[Float[Array, "3 3"], Float[Array, "3 3"]]:
@@ -333,12 +343,16 @@ def tschauner_hempel_stm(
     return out
 
 
+@jax.jit
 def hill_rotation(
     theta: RealScalarLike, i: RealScalarLike, raan: RealScalarLike, argp: RealScalarLike
 ) -> Float[Array, "3 3"]:
     r"""$C_{HN} = R_3(\omega + \theta)R_1(i)R_3(\Omega)$: inertial to Hill components for a target
     at true anomaly $\theta$ on an orbit of inclination $i$, node $\Omega$, periapsis $\omega$
-    (the same matrix as [`hill_frame`][] of the target's state, without needing the state)."""
+    (the same matrix as [`hill_frame`][] of the target's state, without needing the state).
+
+    A `jax.jit` function: traced once per argument shape however many times a closed loop's
+    step evaluates it (XLA inlines the call, so the compiled step is the same)."""
     u = jnp.asarray(argp) + jnp.asarray(theta)
 
     def r1(a):

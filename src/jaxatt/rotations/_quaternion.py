@@ -3,9 +3,9 @@
 See the [`jaxatt.rotations`][] module docstring for the conventions (frames, DCM direction).
 
 The helpers a closed loop calls at every stage (`quat_multiply`, `quat_rotate`, `quat_to_dcm`,
-`quat_kinematics`) are `jax.jit` functions: traced once per argument shape, with their
-derivative and batching rules cached, where inline code is traced again at each call site
-(docs/testing.md, "Where a test's time goes").
+`quat_from_dcm`, `quat_kinematics`) are `jax.jit` functions: traced once per argument shape,
+with their derivative and batching rules cached, where inline code is traced again at each
+call site (docs/testing.md, "Where a test's time goes").
 """
 
 import jax
@@ -194,6 +194,7 @@ def quat_to_dcm(q: Float[ArrayLike, "4"]) -> Float[Array, "3 3"]:
     return (q0 * q0 - jnp.dot(qv, qv)) * eye + 2 * jnp.outer(qv, qv) - 2 * q0 * skew(qv)
 
 
+@jax.jit
 def quat_from_dcm(c: Float[ArrayLike, "3 3"]) -> Float[Array, "4"]:
     r"""Unit quaternion with `quat_to_dcm(q) == c`, by Shepperd's method; $q_0 \ge 0$.
 

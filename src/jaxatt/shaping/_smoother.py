@@ -27,6 +27,7 @@ S(t) = 1 - u_0e^{-2aT}r^2h(-ar),\ r = 2T - t\ (T \le t \le 2T).$$
 
 import math
 
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
@@ -52,6 +53,8 @@ def _series_near_zero(x: Array, coefficients: tuple[float, ...], direct) -> Arra
     return jnp.where(small, series, direct(jnp.where(small, 1.0, x)))
 
 
+# Traced once per argument shape however often a step calls it (docs/performance.md).
+@jax.jit
 def _h(x: Array) -> Array:
     r"""$h(x) = (1 - e^{-x}(1 + x))/x^2$, by its series for $|x| < 0.1$ (error < 1e-16)."""
     return _series_near_zero(x, _SERIES, lambda x: (-jnp.expm1(-x) - x * jnp.exp(-x)) / x**2)
@@ -61,6 +64,8 @@ _EXPM1_SERIES = tuple(1 / float(math.factorial(n + 1)) for n in range(13))
 """Coefficients of $(e^w - 1)/w = \\sum_{n\\ge0} w^n/(n + 1)!$."""
 
 
+# Traced once per argument shape however often a step calls it (docs/performance.md).
+@jax.jit
 def _expm1_ratio(w: Array) -> Array:
     r"""$(e^w - 1)/w$ for complex $w$, 1 at $w = 0$ (its series for $|w| < 0.1$, error
     < 1e-16; the direct form loses digits to cancellation there)."""
