@@ -19,14 +19,7 @@ import pytest
 from jaxatt import simulate
 from jaxatt.scenarios import shi2024, wu2018
 
-
-def _sub_jaxprs(params):
-    for value in params.values():
-        for item in value if isinstance(value, (list, tuple)) else (value,):
-            if hasattr(item, "eqns"):
-                yield item
-            elif hasattr(getattr(item, "jaxpr", None), "eqns"):
-                yield item.jaxpr
+from ..helpers import sub_jaxprs
 
 
 def _jit_calls(jaxpr) -> dict[str, list]:
@@ -39,7 +32,7 @@ def _jit_calls(jaxpr) -> dict[str, list]:
             if eqn.primitive.name in ("pjit", "jit"):
                 avals = tuple(str(v.aval) for v in eqn.invars)
                 calls[eqn.params["name"]].append((avals, eqn.params["jaxpr"]))
-            for sub in _sub_jaxprs(eqn.params):
+            for sub in sub_jaxprs(eqn):
                 walk(sub)
 
     walk(jaxpr)
@@ -51,6 +44,15 @@ def _step_calls(loop, x0, dt, steps: int = 4) -> dict[str, list]:
         return simulate(loop, x0, 0.0, steps * dt, dt=dt, throw=False)
 
     return _jit_calls(eqx.filter_make_jaxpr(run)(loop, x0)[0].jaxpr)
+
+
+def _assert_traced_once_per_shape(calls: dict[str, list], kernel: str, at_least: int) -> None:
+    """`kernel` is called as a jit function at least `at_least` times, with one inner jaxpr
+    per distinct argument signature, and fewer signatures than calls."""
+    found = calls.get(kernel, [])
+    assert len(found) >= at_least, f"{kernel}: {len(found)} jit calls (inline code?)"
+    signatures = {avals for avals, _ in found}
+    assert len({id(j) for _, j in found}) == len(signatures) < len(found)
 
 
 @pytest.fixture(scope="module")
@@ -69,15 +71,9 @@ def wu_calls():
     ],
 )
 def test_wu2018s_step_traces_each_kernel_once_per_shape(wu_calls, kernel, at_least):
-    calls = wu_calls.get(kernel, [])
-    assert len(calls) >= at_least, f"{kernel}: {len(calls)} jit calls (inline code?)"
-    signatures = {avals for avals, _ in calls}
-    inner = {id(j) for _, j in calls}
-    assert len(inner) == len(signatures) < len(calls)
+    _assert_traced_once_per_shape(wu_calls, kernel, at_least)
 
 
 def test_shi2024s_smoother_series_is_traced_once_per_shape():
-    calls = _step_calls(shi2024.build(), shi2024.initial_state(), shi2024.DT).get("_h", [])
-    assert len(calls) >= 4, f"_h: {len(calls)} jit calls (inline code?)"
-    signatures = {avals for avals, _ in calls}
-    assert len({id(j) for _, j in calls}) == len(signatures) < len(calls)
+    calls = _step_calls(shi2024.build(), shi2024.initial_state(), shi2024.DT)
+    _assert_traced_once_per_shape(calls, "_h", 4)

@@ -64,11 +64,10 @@ def anomaly_rates(
     return _anomaly_rates(theta, a, e, mu)
 
 
+# Traced once per argument shape however often a step calls it (docs/performance.md).
 @jax.jit
 def _anomaly_rates(theta, a, e, mu):
-    # `anomaly_rates` once its arguments are checked: a `jax.jit` function, traced once per
-    # argument shape however many times a closed loop's step evaluates it.
-    p = jnp.asarray(a) * (1.0 - jnp.asarray(e) ** 2)
+    p = semi_latus_rectum(a, e)  # its checks skip the traced arguments
     k2 = jnp.sqrt(mu / p**3)
     sin_theta, cos_theta = vectorized_sincos(theta)
     rho = 1.0 + e * cos_theta
